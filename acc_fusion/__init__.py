@@ -1,0 +1,3 @@
+"""acc_fusion: forward-collision-warning research by simulation."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,85 @@
+"""Ground truth handed from a truth source to the sensors, one :class:`TruthFrame` per step.
+
+A truth source (scripted manoeuvres, SUMO, highway-env) describes, at every simulation step,
+N follower→leader pairs.  Pair ``i`` is an (equipped) ego vehicle and the vehicle ahead of it.
+Conventions (see DESIGN.md): SI units; ``gap`` is bumper to bumper; range-rate is
+``d(gap)/dt = lead_speed - ego_speed`` (negative when closing); ``leader_id[i] < 0`` means
+pair ``i`` has no leader in range, and a change of ``leader_id`` is a new target for which the
+filters re-initialise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from acc_fusion.errors import InputError
+from acc_fusion.validation import check_array
+
+
+@dataclass(frozen=True)
+class TruthFrame:
+    """Ground truth of N follower→leader pairs at time ``t`` (all arrays have shape ``(N,)``).
+
+    Attributes:
+        t: simulation time [s].
+        ego_speed: ego (follower) speed [m/s].
+        ego_accel: ego acceleration [m/s²].
+        gap: bumper-to-bumper distance to the leader [m]; ignored where there is no leader.
+        lead_speed: leader speed [m/s].
+        lead_accel: leader acceleration [m/s²].
+        leader_id: integer id of the leader, ``-1`` where the pair has no leader.
+        lateral_offset: lateral offset of the leader's centre from the ego's axis [m]
+            (zeros when the source does not know it).
+    """
+
+    t: float
+    ego_speed: np.ndarray
+    ego_accel: np.ndarray
+    gap: np.ndarray
+    lead_speed: np.ndarray
+    lead_accel: np.ndarray
+    leader_id: np.ndarray
+    lateral_offset: np.ndarray = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        leader = np.asarray(self.leader_id)
+        if leader.ndim != 1 or not np.issubdtype(leader.dtype, np.integer):
+            raise InputError(f"leader_id must be an integer array of shape (N,), got {leader.shape}")
+        object.__setattr__(self, "leader_id", leader.astype(np.int64, copy=False))
+        has = self.leader_id >= 0
+        n = self.leader_id.shape[0]
+        for name in ("ego_speed", "ego_accel"):
+            object.__setattr__(self, name, check_array(name, getattr(self, name), (n,)))
+        for name in ("lead_speed", "lead_accel"):
+            object.__setattr__(self, name, check_array(name, getattr(self, name), (n,), where=has))
+        gap = check_array("gap", self.gap, (n,), nonnegative=False, where=has)
+        object.__setattr__(self, "gap", gap)
+        lat = np.zeros(n) if self.lateral_offset is None else self.lateral_offset
+        object.__setattr__(self, "lateral_offset", check_array("lateral_offset", lat, (n,)))
+
+    @property
+    def n_pairs(self) -> int:
+        """Number of follower→leader pairs N."""
+        return int(self.leader_id.shape[0])
+
+    @property
+    def has_leader(self) -> np.ndarray:
+        """Boolean mask of the pairs that have a leader."""
+        return self.leader_id >= 0
+
+    @property
+    def range_rate(self) -> np.ndarray:
+        """``lead_speed - ego_speed`` [m/s] (negative when closing)."""
+        return self.lead_speed - self.ego_speed
+
+    @property
+    def rel_accel(self) -> np.ndarray:
+        """``lead_accel - ego_accel`` [m/s²]."""
+        return self.lead_accel - self.ego_accel
+
+    @property
+    def state(self) -> np.ndarray:
+        """True relative state ``(N, 3)``: gap, range-rate, relative acceleration."""
+        return np.stack([self.gap, self.range_rate, self.rel_accel], axis=1)
