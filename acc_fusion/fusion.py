@@ -1,0 +1,512 @@
+r"""Fusion center: Carlson's federated Kalman filter and the baselines it is judged against.
+
+All estimators share one interface: ``step(measurements, target_id) -> Estimate``, batched
+over N follower→leader pairs, one step of ``FilterConfig.dt`` seconds per call, run on either
+engine (:mod:`acc_fusion.engines`).  Methods (:data:`FUSION_METHODS`, plus any sensor name):
+
+``<sensor name>`` (e.g. ``"radar"``)
+    That sensor alone: one Kalman filter on its measurements (kong2011's local filter).
+``"centralized"`` / ``"centralized_stacked"``
+    One Kalman filter fed by every sensor: predict once, then update with each reporting
+    sensor in turn (*sequential*) or with all of them stacked into one measurement vector
+    (*stacked*); both are the optimal linear estimate (qa-multisensor thread).
+``"federated"``
+    Carlson's federated filter (Carlson 1990; hu2005 eqs. 3-10; kong2011 eqs. 1-6): one local
+    filter per sensor and a master filter.  The information-sharing factors
+    :math:`\beta_i` (:math:`\sum_i \beta_i = 1`) divide the process-noise and prior
+    information among the locals, :math:`Q_i = \beta_i^{-1} Q`, :math:`P_i = \beta_i^{-1} P_m`,
+    which removes the correlation the common process noise would otherwise create; the
+    master fuses :math:`P_m = (\sum_i P_i^{-1})^{-1}`, :math:`\hat x_m = P_m\sum_i P_i^{-1}\hat
+    x_i` every ``fusion_period`` steps.  Reset modes:
+
+    * ``fusion`` (fusion-reset, :math:`\beta_m = 0`): after each fusion every local restarts from
+      the fused estimate with :math:`P_i = \beta_i^{-1} P_m`.  Fused at every step this equals
+      the centralized filter exactly.
+    * ``zero`` (zero-reset, :math:`\beta_m = 1`): the master keeps all the process-noise and
+      prior information; each local restarts from the fused estimate and reports only the
+      information it gathered since, :math:`P_m^{-1} = P_m^{-,-1} + \sum_i (P_i^{-1} -
+      P_m^{-,-1})` (information-increment form).  Also exact when fused every step.
+    * ``none`` (no-reset): locals start with :math:`\beta_i^{-1}`-inflated prior and process
+      noise and are never reset; the fused covariance is then an upper bound (conservative).
+
+    :math:`\beta` is ``"equal"`` (:math:`1/n`), ``"trace"`` (covariance-based: the more
+    precise local gets the larger share, :math:`\beta_i \propto 1/\mathrm{tr}(\beta_i P_i)`;
+    hu2005's diagonal method prints the ratio the other way up and per state component, which
+    breaks :math:`\sum_i P_i^{-1} = P_m^{-1}`, so acc_fusion uses its scalar, information-
+    preserving form), or explicit values.  Fault detection and isolation
+    (:mod:`acc_fusion.fdi`) leaves failing sensors out of the fusion.
+``"plain"``
+    kong2011's fusion formula without information sharing: independent full local filters
+    (:math:`\beta_i = 1`, no reset) fused as if uncorrelated.  Over-confident, because the
+    locals share the process noise and the initial measurement (hu2005's point).
+
+Track management (all methods): a pair's filters (re)initialise from the first measurement
+after its target id changes (a new leader, from the truth source's leader ids: the data
+association of a real tracker) or after ``max_coast`` seconds without a usable measurement:
+:math:`\hat x_0 = [r, \dot r, 0]`, :math:`P_0 = \mathrm{diag}(R, \sigma_{a,0}^2)`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from acc_fusion.engines import ENGINES, Engine
+from acc_fusion.errors import ConfigError, InputError
+from acc_fusion.fdi import FDIConfig, WindowedChiSquare
+from acc_fusion.models import MEASUREMENT_MATRIX, STATE_DIM, ca_process_noise, ca_transition
+from acc_fusion.validation import check_choice, check_range
+
+if TYPE_CHECKING:
+    from acc_fusion.sensors import Measurement
+
+FUSION_METHODS = ("centralized", "centralized_stacked", "federated", "plain")
+RESET_MODES = ("fusion", "zero", "none")
+BETA_METHODS = ("equal", "trace")
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """Local-filter model, shared by every method.
+
+    Attributes:
+        dt: step of the estimation loop [s] (default 0.05: the radar's 20 Hz).
+        jerk_std: relative-jerk standard deviation :math:`\\sigma_j` of the constant-
+            acceleration model [m/s³] (default 2.0: ordinary driving, braking onsets of a few
+            m/s³; see :mod:`acc_fusion.models`).
+        init_accel_std: standard deviation of the relative acceleration at initialisation
+            [m/s²] (default 3.0: ±1 g covers emergency braking at 3 σ).
+        max_coast: seconds without a usable measurement after which a track is dropped
+            (default 1.0).
+    """
+
+    dt: float = 0.05
+    jerk_std: float = 2.0
+    init_accel_std: float = 3.0
+    max_coast: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_range("filter.dt", self.dt, 0.0, 10.0, lo_open=True)
+        check_range("filter.jerk_std", self.jerk_std, 0.0, 1e3)
+        check_range("filter.init_accel_std", self.init_accel_std, 0.0, 1e3, lo_open=True)
+        check_range("filter.max_coast", self.max_coast, 0.0, 1e6, lo_open=True)
+
+
+@dataclass(frozen=True)
+class FusionConfig:
+    """Which estimator to run and how (one typed place for every fusion default).
+
+    Attributes:
+        method: a sensor name (that sensor alone) or one of :data:`FUSION_METHODS`.
+        engine: ``"batched"`` (numba, default) or ``"filterpy"`` (reference).
+        beta: information-sharing factors: ``"equal"``, ``"trace"`` or one value per sensor
+            (each in (0, 1], summing to 1).
+        reset: federated reset mode, one of :data:`RESET_MODES`.
+        fusion_period: steps between two fusions of the federated filter (>= 1).
+        fdi: fault detection and isolation of the federated filter, ``None`` to disable.
+        filter: the local-filter model.
+    """
+
+    method: str = "federated"
+    engine: str = "batched"
+    beta: str | tuple[float, ...] = "equal"
+    reset: str = "fusion"
+    fusion_period: int = 1
+    fdi: FDIConfig | None = field(default_factory=FDIConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+
+    def __post_init__(self) -> None:
+        check_choice("fusion.engine", self.engine, ENGINES)
+        check_choice("fusion.reset", self.reset, RESET_MODES)
+        if isinstance(self.beta, str):
+            check_choice("fusion.beta", self.beta, BETA_METHODS)
+        else:
+            values = tuple(
+                check_range("fusion.beta[i]", b, 0.0, 1.0, lo_open=True) for b in self.beta
+            )
+            if abs(sum(values) - 1.0) > 1e-9:
+                raise ConfigError(f"fusion.beta values must sum to 1, got {sum(values):g}")
+            object.__setattr__(self, "beta", values)
+        if not isinstance(self.fusion_period, int) or self.fusion_period < 1:
+            raise ConfigError(
+                f"fusion.fusion_period must be a whole number >= 1, got {self.fusion_period!r}"
+            )
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What an estimator knows about every pair after one step.
+
+    Attributes:
+        t: time [s].
+        x: state estimates ``(N, 3)``: gap [m], range-rate [m/s], relative accel [m/s²].
+        p: covariances ``(N, 3, 3)``.
+        valid: ``(N,)`` pairs with an initialised track (``x`` is meaningless elsewhere).
+        nis: ``(N, S)`` NIS of each sensor's measurement against the estimator's prediction
+            at this step (NaN where the sensor did not report).
+        isolated: ``(N, S)`` sensors the fault detection has left out of the fusion.
+    """
+
+    t: float
+    x: np.ndarray
+    p: np.ndarray
+    valid: np.ndarray
+    nis: np.ndarray
+    isolated: np.ndarray
+
+    @property
+    def gap(self) -> np.ndarray:
+        """Estimated gap [m] ``(N,)``."""
+        return self.x[:, 0]
+
+    @property
+    def gap_std(self) -> np.ndarray:
+        """Standard deviation of the gap estimate [m] ``(N,)``."""
+        return np.sqrt(self.p[:, 0, 0])
+
+
+class Estimator(ABC):
+    """Common track management and input checks; subclasses implement ``_advance``."""
+
+    def __init__(self, sensors: Sequence[str], n_pairs: int, config: FusionConfig) -> None:
+        if n_pairs < 1:
+            raise ConfigError(f"n_pairs must be >= 1, got {n_pairs}")
+        self.sensors = tuple(sensors)
+        self.n_pairs = int(n_pairs)
+        self.config = config
+        self.engine = Engine(config.engine)
+        fc = config.filter
+        self.f = ca_transition(fc.dt)
+        self.q = ca_process_noise(fc.dt, fc.jerk_std)
+        self.h = MEASUREMENT_MATRIX
+        self.reset()
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.sensors)
+
+    def reset(self) -> None:
+        """Forget every track."""
+        n = self.n_pairs
+        self.initialised = np.zeros(n, dtype=bool)
+        self._target = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
+        self._last = np.zeros(n)
+        self._nis = np.full((n, self.n_sensors), np.nan)
+        self._reset_state()
+
+    @abstractmethod
+    def _reset_state(self) -> None: ...
+
+    @abstractmethod
+    def _advance(self, z, r, valid) -> np.ndarray:
+        """One predict/update cycle; returns the pairs that used a measurement."""
+
+    @abstractmethod
+    def _drop(self, pairs: np.ndarray) -> None:
+        """Forget the tracks of ``pairs`` (their filters are re-initialised later)."""
+
+    @abstractmethod
+    def _state(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def _isolated(self) -> np.ndarray:
+        return np.zeros((self.n_pairs, self.n_sensors), dtype=bool)
+
+    def step(self, measurements: Sequence[Measurement], target_id: np.ndarray) -> Estimate:
+        """Advance every pair by one step with this step's measurements (one per sensor)."""
+        z, r, valid, target_id = self._check(measurements, target_id)
+        t = float(measurements[0].t)
+        lost = self.initialised & (
+            (target_id != self._target) | (t - self._last > self.config.filter.max_coast + 1e-9)
+        )
+        self._target = target_id
+        if lost.any():
+            self.initialised &= ~lost
+            self._drop(lost)
+        self._nis[:] = np.nan
+        used = self._advance(z, r, valid)
+        self._last[used] = t
+        x, p = self._state()
+        return Estimate(
+            t=t,
+            x=np.array(x),
+            p=np.array(p),
+            valid=self.initialised.copy(),
+            nis=self._nis.copy(),
+            isolated=self._isolated(),
+        )
+
+    def _check(self, measurements, target_id):
+        n, s = self.n_pairs, self.n_sensors
+        if len(measurements) != s:
+            raise InputError(
+                f"expected {s} measurements ({', '.join(self.sensors)}), got {len(measurements)}"
+            )
+        target_id = np.asarray(target_id)
+        if target_id.shape != (n,) or not np.issubdtype(target_id.dtype, np.integer):
+            raise InputError(
+                f"target_id must be an integer array of shape ({n},), got {target_id.shape}"
+            )
+        z = np.empty((s, n, 2))
+        r = np.empty((s, n, 2, 2))
+        valid = np.empty((s, n), dtype=bool)
+        for i, m in enumerate(measurements):
+            name = f"measurements[{i}] ({self.sensors[i]})"
+            if np.shape(m.z) != (n, 2) or np.shape(m.r) != (n, 2, 2) or np.shape(m.valid) != (n,):
+                raise InputError(
+                    f"{name} must have z (N, 2), r (N, 2, 2), valid (N,) with N = {n}, got "
+                    f"{np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
+                )
+            v = np.asarray(m.valid, dtype=bool)
+            zv, rv = m.z[v], m.r[v]
+            if not (np.all(np.isfinite(zv)) and np.all(np.isfinite(rv))):
+                raise InputError(f"{name} has NaN or inf in a valid measurement or its covariance")
+            if np.any(zv[:, 0] < 0):
+                raise InputError(
+                    f"{name} has a negative range ({zv[:, 0].min():g} m); ranges must be >= 0"
+                )
+            if np.any(rv[:, 0, 0] <= 0) or np.any(rv[:, 1, 1] <= 0):
+                raise InputError(f"{name} has a non-positive measurement variance; it must be > 0")
+            z[i] = np.where(v[:, None], m.z, 0.0)
+            r[i] = np.where(v[:, None, None], m.r, np.eye(2))
+            valid[i] = v
+        return z, r, valid, target_id.astype(np.int64)
+
+    def _initial(self, z, r, valid):
+        """Initial states from the first reporting sensor of each uninitialised pair.
+
+        Returns ``(init (N,), x0 (N, 3), p0 (N, 3, 3), consumed (S, N))``.
+        """
+        init = ~self.initialised & valid.any(axis=0)
+        first = np.argmax(valid, axis=0)
+        cols = np.arange(self.n_pairs)
+        zf, rf = z[first, cols], r[first, cols]
+        x0 = np.zeros((self.n_pairs, STATE_DIM))
+        x0[:, :2] = zf
+        p0 = np.zeros((self.n_pairs, STATE_DIM, STATE_DIM))
+        p0[:, :2, :2] = rf
+        p0[:, 2, 2] = self.config.filter.init_accel_std**2
+        consumed = (np.arange(self.n_sensors)[:, None] == first[None, :]) & init[None, :]
+        return init, x0, p0, consumed
+
+    @staticmethod
+    def _rows(mask: np.ndarray, m: int = 2) -> np.ndarray:
+        return np.repeat(mask[:, None], m, axis=1)
+
+
+class SingleSensorFilter(Estimator):
+    """One sensor alone: its local Kalman filter (kong2011 eqs. 1-4)."""
+
+    def __init__(self, sensors, n_pairs, config, sensor: str) -> None:
+        self.index = list(sensors).index(sensor)
+        super().__init__(sensors, n_pairs, config)
+
+    def _reset_state(self):
+        self.bank = self.engine.bank(1, self.n_pairs, STATE_DIM)
+
+    def _drop(self, pairs):
+        pass
+
+    def _state(self):
+        return self.bank.x[0], self.bank.p[0]
+
+    def _advance(self, z, r, valid):
+        j = self.index
+        self.bank.predict(self.f, self.q, 1.0, self.initialised[None])
+        only = np.zeros_like(valid)
+        only[j] = valid[j]
+        init, x0, p0, _ = self._initial(z, r, only)
+        self.bank.assign(0, init, x0, p0)
+        self.initialised |= init
+        rows = self._rows(self.initialised & valid[j] & ~init)
+        self._nis[:, j] = self.bank.update(0, z[j], r[j], self.h, rows)
+        return valid[j] & self.initialised
+
+
+class CentralizedFilter(Estimator):
+    """One Kalman filter updated by every sensor, sequentially or stacked."""
+
+    def __init__(self, sensors, n_pairs, config, stacked: bool = False) -> None:
+        self.stacked = stacked
+        super().__init__(sensors, n_pairs, config)
+
+    def _reset_state(self):
+        self.bank = self.engine.bank(1, self.n_pairs, STATE_DIM)
+
+    def _drop(self, pairs):
+        pass
+
+    def _state(self):
+        return self.bank.x[0], self.bank.p[0]
+
+    def _advance(self, z, r, valid):
+        self.bank.predict(self.f, self.q, 1.0, self.initialised[None])
+        init, x0, p0, consumed = self._initial(z, r, valid)
+        self.bank.assign(0, init, x0, p0)
+        self.initialised |= init
+        use = self.initialised[None] & valid & ~consumed
+        x_prior, p_prior = np.array(self.bank.x[0]), np.array(self.bank.p[0])
+        for s in range(self.n_sensors):
+            self._nis[:, s] = self.engine.nis(
+                x_prior, p_prior, z[s], r[s], self.h, self._rows(use[s])
+            )
+        if self.stacked:
+            s = self.n_sensors
+            r_all = np.zeros((self.n_pairs, 2 * s, 2 * s))
+            for i in range(s):
+                r_all[:, 2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = r[i]
+            self.bank.update(
+                0,
+                np.concatenate(list(z), axis=1),
+                r_all,
+                np.vstack([self.h] * s),
+                np.concatenate([self._rows(u) for u in use], axis=1),
+            )
+        else:
+            for i in range(self.n_sensors):
+                self.bank.update(0, z[i], r[i], self.h, self._rows(use[i]))
+        return (use | consumed).any(axis=0)
+
+
+class FederatedFilter(Estimator):
+    """Carlson's federated Kalman filter (see the module docstring); ``plain`` = no sharing."""
+
+    def __init__(self, sensors, n_pairs, config, plain: bool = False) -> None:
+        self.plain = plain
+        reset = "none" if plain else config.reset
+        self._feedback = reset in ("fusion", "zero")
+        self._increments = reset == "zero"
+        self._inflate = not plain and reset != "zero"
+        if not isinstance(config.beta, str) and len(config.beta) != len(sensors):
+            raise ConfigError(
+                f"fusion.beta has {len(config.beta)} values but there are {len(sensors)} sensors"
+            )
+        super().__init__(sensors, n_pairs, config)
+
+    def _beta0(self) -> np.ndarray:
+        b = self.config.beta
+        if isinstance(b, str):
+            return np.full(self.n_sensors, 1.0 / self.n_sensors)
+        return np.asarray(b, dtype=float)
+
+    def _reset_state(self):
+        n, s = self.n_pairs, self.n_sensors
+        self.locals = self.engine.bank(s, n, STATE_DIM)
+        self.master = self.engine.bank(1, n, STATE_DIM)
+        self.beta = np.repeat(self._beta0()[:, None], n, axis=1)
+        fdi = None if self.plain else self.config.fdi
+        self.fdi = None if fdi is None else WindowedChiSquare(n, s, fdi)
+        self._k = 0
+
+    def _drop(self, pairs):
+        self.beta[:, pairs] = self._beta0()[:, None]
+        if self.fdi is not None:
+            self.fdi.reset(pairs)
+
+    def _state(self):
+        return self.master.x[0], self.master.p[0]
+
+    def _isolated(self):
+        return self._isolation().T.copy()
+
+    def _isolation(self) -> np.ndarray:
+        """``(S, N)`` isolation flags."""
+        if self.fdi is None:
+            return np.zeros((self.n_sensors, self.n_pairs), dtype=bool)
+        return self.fdi.isolated.T
+
+    def _inflation(self) -> np.ndarray:
+        """``(S, N)`` factor :math:`1/\\beta_i` applied to a local's prior and process noise."""
+        if not self._inflate:
+            return np.ones_like(self.beta)
+        return np.where(self.beta > 0, 1.0 / np.where(self.beta > 0, self.beta, 1.0), 1.0)
+
+    def _share(self, active: np.ndarray) -> None:
+        """Recompute :math:`\\beta` over the active locals of every pair (sum 1 per pair)."""
+        if self.config.beta == "trace":
+            tr = np.trace(self.locals.p, axis1=2, axis2=3) * np.where(self.beta > 0, self.beta, 1.0)
+            w = np.where(active, 1.0 / tr, 0.0)
+        else:
+            w = np.where(active, self._beta0()[:, None], 0.0)
+        total = w.sum(axis=0)
+        ok = total > 0
+        self.beta[:, ok] = w[:, ok] / total[ok]
+
+    def _advance(self, z, r, valid):
+        s_all = range(self.n_sensors)
+        ini = self.initialised
+        self.master.predict(self.f, self.q, 1.0, ini[None])
+        self.locals.predict(self.f, self.q, self._inflation(), ini[None])
+
+        init, x0, p0, consumed = self._initial(z, r, valid)
+        if init.any():
+            self._drop(init)
+            self.master.assign(0, init, x0, p0)
+            infl = self._inflation()
+            for s in s_all:
+                self.locals.assign(s, init, x0, p0 * infl[s][:, None, None])
+            ini = self.initialised = ini | init
+
+        reporting = ini[None] & valid & ~consumed
+        xm, pm = np.array(self.master.x[0]), np.array(self.master.p[0])
+        nis = np.stack(
+            [self.engine.nis(xm, pm, z[s], r[s], self.h, self._rows(reporting[s])) for s in s_all]
+        )
+        self._nis[:] = nis.T
+        if self.fdi is not None:
+            accepted, rejoined = (a.T for a in self.fdi.step(nis.T, reporting.T))
+        else:
+            accepted, rejoined = reporting, np.zeros_like(reporting)
+        for s in s_all:
+            self.locals.update(s, z[s], r[s], self.h, self._rows(accepted[s]))
+
+        active = ini[None] & ~self._isolation()
+        if self._k % self.config.fusion_period == 0:
+            xf, pf = self.engine.fuse(
+                self.locals.x,
+                self.locals.p,
+                active,
+                self.master.x[0],
+                self.master.p[0],
+                self._increments,
+            )
+            self.master.assign(0, ini, xf, pf)
+            if self._feedback:
+                self._share(active)
+                infl = self._inflation()
+                for s in s_all:
+                    self.locals.assign(s, active[s], xf, pf * infl[s][:, None, None])
+        if rejoined.any():
+            self._share(active)
+            infl = self._inflation()
+            xm, pm = self.master.x[0], self.master.p[0]
+            for s in s_all:
+                self.locals.assign(s, rejoined[s] & ini, xm, pm * infl[s][:, None, None])
+        self._k += 1
+        # A pair whose every sensor is isolated has lost its track: start again.
+        lost = ini & self._isolation().all(axis=0)
+        if lost.any():
+            self.initialised &= ~lost
+            self._drop(lost)
+        return (accepted | consumed).any(axis=0)
+
+
+def make_estimator(config: FusionConfig | str, sensors: Sequence[str], n_pairs: int) -> Estimator:
+    """Build the estimator named by ``config.method`` (or by a method name with defaults).
+
+    >>> est = make_estimator("federated", ("radar", "infrared"), n_pairs=4)
+    >>> type(est).__name__
+    'FederatedFilter'
+    """
+    if isinstance(config, str):
+        config = FusionConfig(method=config)
+    sensors = tuple(sensors)
+    method = check_choice("fusion.method", config.method, sensors + FUSION_METHODS)
+    if method in sensors:
+        return SingleSensorFilter(sensors, n_pairs, config, sensor=method)
+    if method.startswith("centralized"):
+        return CentralizedFilter(sensors, n_pairs, config, stacked=method.endswith("stacked"))
+    return FederatedFilter(sensors, n_pairs, config, plain=method == "plain")
