@@ -43,7 +43,7 @@ class FilterBank(ABC):
 
     @abstractmethod
     def predict(self, f: np.ndarray, q: np.ndarray, q_scale: np.ndarray, mask: np.ndarray):
-        """Time update of the filters where ``mask (K, N)``; process noise ``q_scale (K, N) * q``."""
+        """Time update where ``mask (K, N)``, with process noise ``q_scale (K, N) * q``."""
 
     @abstractmethod
     def update(

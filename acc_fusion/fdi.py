@@ -8,17 +8,18 @@ consistent filter (Bar-Shalom, Li & Kirubarajan 2001, §5.4; in fusion-reset mod
 local filter's own innovation with its information share undone).  Two tests use it:
 
 * **Gate** (per report): a measurement with :math:`\epsilon_\nu > \chi^2_{m}(p_g)` is not used
-  in the update (an outlier: a spike, a ghost, the first report of a bias).  When *every*
-  reporting, non-isolated sensor of a pair fails the gate at the same step the cause is
-  common to all of them (a manoeuvre the motion model did not expect), so the measurements
-  are used and not counted as evidence of a fault.
-* **Window** (per sensor): the sum of the last W NIS values, each clipped at the gate, is
-  compared with :math:`\chi^2_{mW}(1-\alpha)`.  A failing sensor is *isolated*: left out of the
-  fusion.  Its window is then refilled with its NIS against the fusion center's prediction,
-  and when a full window passes the test again the sensor rejoins (the fusion center
-  re-initialises its local filter from the fused estimate).  Clipping keeps one spike from
-  isolating a sensor, while a persistent fault (bias, stuck value, noise burst) fills the
-  window with large values and isolates it after W reports.
+  in the update (an outlier: a spike, a ghost, the first report of a bias).  When two or
+  more non-isolated sensors of a pair report at the same step and *every one* fails the
+  gate, the cause is common to all of them (a manoeuvre the motion model did not expect), so
+  the measurements are used and not counted as evidence of a fault.
+* **Window** (per sensor): the sum of the last W NIS values, each clipped at
+  :math:`\chi^2_m(p_c)`, is compared with :math:`\chi^2_{mW}(1-\alpha)`.  A failing sensor is
+  *isolated*: left out of the fusion.  Its window is then refilled with its NIS against the
+  fusion center's prediction, and when a full window passes the test again the sensor
+  rejoins (the fusion center re-initialises its local filter from the fused estimate).
+  Clipping keeps one spike from isolating a sensor (it adds at most
+  :math:`\chi^2_m(p_c)` = 9.2 for m = 2), while a persistent fault (bias, stuck value, noise
+  burst) fills the window with large values and isolates it after W reports.
 
 The state (windows, isolation flags) is per pair and per sensor, stored in arrays, so the
 test costs a few vector operations per step whatever the number of pairs.
@@ -43,14 +44,16 @@ class FDIConfig:
         window: number of reports W summed by the window test (default 10: 0.5 s of radar,
             1 s of infrared at their default rates).
         alpha: false-isolation probability of one window test of a healthy sensor
-            (default 0.01).
+            (default 0.001; windows overlap, so a healthy sensor is isolated about
+            0.2 % of the time at this level).
         gate_prob: probability mass of the per-report gate :math:`\\chi^2_m(p_g)`
             (default 0.9999, i.e. 18.4 for m = 2).
     """
 
     window: int = 10
-    alpha: float = 0.01
+    alpha: float = 0.001
     gate_prob: float = 0.9999
+    clip_prob: float = 0.99
 
     def __post_init__(self) -> None:
         if not isinstance(self.window, int) or not 1 <= self.window <= 10_000:
@@ -59,6 +62,7 @@ class FDIConfig:
             )
         check_range("fdi.alpha", self.alpha, 0.0, 1.0, lo_open=True, hi_open=True)
         check_range("fdi.gate_prob", self.gate_prob, 0.0, 1.0, lo_open=True, hi_open=True)
+        check_range("fdi.clip_prob", self.clip_prob, 0.0, 1.0, lo_open=True, hi_open=True)
 
 
 class WindowedChiSquare:
@@ -68,6 +72,7 @@ class WindowedChiSquare:
         self.config = config
         w = int(config.window)
         self.gate = float(chi2.ppf(config.gate_prob, dof))
+        self.clip = float(chi2.ppf(config.clip_prob, dof))
         self.threshold = float(chi2.ppf(1.0 - config.alpha, dof * w))
         self._buf = np.zeros((n_pairs, n_sensors, w))
         self._sum = np.zeros((n_pairs, n_sensors))
@@ -95,14 +100,14 @@ class WindowedChiSquare:
         """
         passed = reported & (nis <= self.gate)
         healthy = reported & ~self.isolated
-        # Common cause: every reporting, non-isolated sensor of a pair fails the gate.
-        common = healthy.any(axis=1) & ~(passed & healthy).any(axis=1)
+        # Common cause: two or more healthy sensors report and every one fails the gate.
+        common = (healthy.sum(axis=1) >= 2) & ~(passed & healthy).any(axis=1)
         accepted = healthy & (passed | common[:, None])
         record = reported & ~common[:, None]
 
         pi, si = np.nonzero(record)
         slot = self._pos[pi, si]
-        value = np.minimum(nis[pi, si], self.gate)
+        value = np.minimum(nis[pi, si], self.clip)
         self._sum[pi, si] += value - self._buf[pi, si, slot]
         self._buf[pi, si, slot] = value
         w = self._buf.shape[2]

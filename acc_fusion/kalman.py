@@ -176,14 +176,14 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
         for i in range(n):  # (I-KH) P
             for j in range(n):
                 s = 0.0
-                for l in range(n):
-                    s += ikh[i, l] * p[k, l, j]
+                for c in range(n):
+                    s += ikh[i, c] * p[k, c, j]
                 tmp[i, j] = s
         for i in range(n):  # (I-KH) P (I-KH)^T + K R K^T
             for j in range(n):
                 s = 0.0
-                for l in range(n):
-                    s += tmp[i, l] * ikh[j, l]
+                for c in range(n):
+                    s += tmp[i, c] * ikh[j, c]
                 t = 0.0
                 for a in range(m):
                     u = 0.0

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acc_fusion.models import ca_transition
 from acc_fusion.errors import InputError
+from acc_fusion.models import ca_transition
 from acc_fusion.validation import check_array
 
 
@@ -146,6 +146,8 @@ class LinearGaussianSource:
 
     def advance(self) -> TruthFrame:
         """Move every pair one step along the model and return the new frame."""
-        self.state = self.state @ self.f.T + self._rng.standard_normal(self.n_pairs)[:, None] * self._g
+        self.state = (
+            self.state @ self.f.T + self._rng.standard_normal(self.n_pairs)[:, None] * self._g
+        )
         self.t += self.dt
         return self.frame()

@@ -38,7 +38,7 @@ def check_range(
 
 
 def check_choice(name: str, value: str, choices: Iterable[str]) -> str:
-    """Return ``value`` if it is one of ``choices``, else raise :class:`ConfigError` listing them."""
+    """Return ``value`` if it is in ``choices``, else raise :class:`ConfigError` listing them."""
     options = tuple(choices)
     if value not in options:
         raise ConfigError(f"{name} must be one of {', '.join(map(repr, options))}, got {value!r}")

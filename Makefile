@@ -1,0 +1,41 @@
+# The two commands of the README: `make run` (the main job) and `make test` (the whole suite).
+# Both create .venv when needed and install the project with everything it needs.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+
+.PHONY: run test test-fast lint format bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/pip install --quiet -e ".[test]"
+	rm -f $(VENV)/.installed-*
+	touch $@
+
+run: $(STAMP)
+	$(BIN)/acc-fusion compare
+
+test: $(STAMP)
+	$(BIN)/ruff check acc_fusion envs scripts tests
+	$(BIN)/ruff format --check acc_fusion envs scripts tests
+	$(BIN)/pytest -q
+
+test-fast: $(STAMP)
+	$(BIN)/pytest -q -m "not slow"
+
+lint: $(STAMP)
+	$(BIN)/ruff check acc_fusion envs scripts tests
+
+format: $(STAMP)
+	$(BIN)/ruff format acc_fusion envs scripts tests
+	$(BIN)/ruff check --fix acc_fusion envs scripts tests
+
+bench: $(STAMP)
+	$(BIN)/python scripts/bench_filters.py --quick
+
+clean:
+	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache

@@ -1,0 +1,109 @@
+"""Federated fusion against its baselines on linear-Gaussian data (issue tests 3 and 4)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import LG_FILTER, run_methods
+
+from acc_fusion.fusion import FusionConfig
+from acc_fusion.pipeline import chi2_mean_bounds
+
+
+def cfg(method: str, **kw) -> FusionConfig:
+    kw.setdefault("fdi", None)
+    return FusionConfig(method=method, filter=LG_FILTER, **kw)
+
+
+def max_diff(a_list, b_list) -> float:
+    worst = 0.0
+    for a, b in zip(a_list, b_list, strict=True):
+        assert np.array_equal(a.valid, b.valid)
+        v = a.valid
+        worst = max(worst, np.abs(a.x[v] - b.x[v]).max(initial=0.0))
+        worst = max(worst, np.abs(a.p[v] - b.p[v]).max(initial=0.0))
+    return worst
+
+
+def test_fusion_and_zero_reset_every_step_equal_the_centralized_filter():
+    _, tr = run_methods(
+        {
+            "central": cfg("centralized"),
+            "stacked": cfg("centralized_stacked"),
+            "fusion": cfg("federated", reset="fusion"),
+            "zero": cfg("federated", reset="zero"),
+            "fusion_trace": cfg("federated", reset="fusion", beta="trace"),
+        },
+        n=60,
+        steps=100,
+        seed=3,
+    )
+    for name in ("stacked", "fusion", "zero", "fusion_trace"):
+        assert max_diff(tr["central"], tr[name]) < 1e-9, name
+
+
+def test_slower_fusion_differs_from_centralized_but_stays_close():
+    res, tr = run_methods(
+        {"central": cfg("centralized"), "fusion5": cfg("federated", fusion_period=5)},
+        n=200,
+        steps=100,
+        seed=4,
+        score_from=1.0,
+    )
+    assert max_diff(tr["central"], tr["fusion5"]) > 1e-6
+    assert res.estimators["fusion5"].rmse_gap < 1.3 * res.estimators["central"].rmse_gap
+
+
+@pytest.mark.slow
+def test_consistency_of_local_and_fused_estimates_over_500_runs():
+    n = 500
+    res, _ = run_methods(
+        {
+            "radar": cfg("radar"),
+            "infrared": cfg("infrared"),
+            "federated": cfg("federated"),
+            "centralized": cfg("centralized"),
+        },
+        n=n,
+        steps=100,
+        seed=5,
+    )
+    lo, hi = chi2_mean_bounds(3, n)
+    for name, st in res.estimators.items():
+        assert lo <= st.mean_nees <= hi, (name, st.mean_nees, (lo, hi))
+    # NIS of each sensor: local filters (alone) and against the fused prediction.
+    for name, sensors in (("radar", [0]), ("infrared", [1]), ("federated", [0, 1])):
+        st = res.estimators[name]
+        for s in sensors:
+            lo2, hi2 = chi2_mean_bounds(2, int(st.nis_count[s]))
+            assert lo2 <= st.mean_nis[s] <= hi2, (name, s, st.mean_nis[s], (lo2, hi2))
+
+
+def test_no_reset_is_conservative_and_the_plain_formula_over_confident():
+    n = 300
+    res, _ = run_methods(
+        {"none": cfg("federated", reset="none"), "plain": cfg("plain")}, n=n, steps=100, seed=6
+    )
+    lo, hi = chi2_mean_bounds(3, n)
+    assert res.estimators["none"].mean_nees <= hi
+    assert res.estimators["none"].mean_nees < 3.0
+    assert res.estimators["plain"].mean_nees > hi
+
+
+def test_fusion_beats_each_sensor_alone():
+    res, _ = run_methods(
+        {"radar": cfg("radar"), "infrared": cfg("infrared"), "federated": cfg("federated")},
+        n=300,
+        steps=100,
+        seed=7,
+        score_from=1.0,
+    )
+    e = res.estimators
+    assert e["federated"].rmse_gap < e["radar"].rmse_gap < e["infrared"].rmse_gap
+    assert e["federated"].rmse_rate < min(e["radar"].rmse_rate, e["infrared"].rmse_rate)
+
+
+def test_fdi_rarely_isolates_a_healthy_sensor():
+    _, tr = run_methods({"fed": FusionConfig(filter=LG_FILTER)}, n=300, steps=100, seed=8)
+    frac = np.mean([e.isolated[e.valid].mean() for e in tr["fed"] if e.valid.any()])
+    assert frac < 0.02
