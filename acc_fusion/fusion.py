@@ -62,11 +62,12 @@ from acc_fusion.models import MEASUREMENT_MATRIX, STATE_DIM, ca_process_noise, c
 from acc_fusion.validation import check_choice, check_range
 
 if TYPE_CHECKING:
-    from acc_fusion.sensors import Measurement
+    from acc_fusion.sensors import Measurement, SensorSpec
 
 FUSION_METHODS = ("centralized", "centralized_stacked", "federated", "plain")
 RESET_MODES = ("fusion", "zero", "none")
 BETA_METHODS = ("equal", "trace")
+LOCAL_FILTERS = ("full", "steady")
 
 
 @dataclass(frozen=True)
@@ -109,6 +110,11 @@ class FusionConfig:
         fusion_period: steps between two fusions of the federated filter (>= 1).
         fdi: fault detection and isolation of the federated filter, ``None`` to disable.
         filter: the local-filter model.
+        local: ``"full"`` Kalman filter, or ``"steady"``: the constant-gain filter of the
+            algebraic Riccati equation (single-sensor methods only; needs the sensor's
+            :class:`~acc_fusion.sensors.SensorSpec` for its rate and noise).
+        steady_range: range [m] at which a range-dependent noise is evaluated for the
+            constant gain (default 40 m).
     """
 
     method: str = "federated"
@@ -118,9 +124,13 @@ class FusionConfig:
     fusion_period: int = 1
     fdi: FDIConfig | None = field(default_factory=FDIConfig)
     filter: FilterConfig = field(default_factory=FilterConfig)
+    local: str = "full"
+    steady_range: float = 40.0
 
     def __post_init__(self) -> None:
         check_choice("fusion.engine", self.engine, ENGINES)
+        check_choice("fusion.local", self.local, LOCAL_FILTERS)
+        check_range("fusion.steady_range", self.steady_range, 0.0, 1e4, lo_open=True)
         check_choice("fusion.reset", self.reset, RESET_MODES)
         if isinstance(self.beta, str):
             check_choice("fusion.beta", self.beta, BETA_METHODS)
@@ -494,8 +504,83 @@ class FederatedFilter(Estimator):
         return (accepted | consumed).any(axis=0)
 
 
-def make_estimator(config: FusionConfig | str, sensors: Sequence[str], n_pairs: int) -> Estimator:
+class SteadyStateFilter(Estimator):
+    r"""One sensor alone with a constant-gain filter (patent CN103196450A, discrete form).
+
+    The gain is the steady state of the Riccati recursion for a sensor that reports every
+    :math:`m = \mathrm{round}(1 / (f_s\,T))` steps (:func:`~acc_fusion.steady_state.
+    periodic_steady_state`), with :math:`R` evaluated at ``steady_range``.  Per step it costs
+    one matrix-vector product: :math:`\hat x \leftarrow F\hat x`, and on a report
+    :math:`\hat x \leftarrow \hat x + K (z - H\hat x)`.  The covariance it reports is the
+    steady-state one for the number of steps since the last report, which is optimistic during
+    the transient after initialisation (the price of the constant gain).
+    """
+
+    def __init__(self, sensors, n_pairs, config, spec: SensorSpec) -> None:
+        from acc_fusion.steady_state import periodic_steady_state
+
+        self.index = list(sensors).index(spec.name)
+        fc = config.filter
+        period = max(1, int(round(1.0 / (spec.rate_hz * fc.dt))))
+        f, q = ca_transition(fc.dt), ca_process_noise(fc.dt, fc.jerk_std)
+        r = np.diag([spec.range_noise_std(config.steady_range) ** 2, spec.range_rate_std**2])
+        ss = periodic_steady_state(f, q, MEASUREMENT_MATRIX, r, period)
+        self.gain, self.r_nominal = ss.K, r
+        # Covariance k steps after a report, for k up to the longest coast.
+        n_cov = int(np.ceil(fc.max_coast / fc.dt)) + 2
+        covs = [ss.P_post]
+        for _ in range(n_cov):
+            covs.append(f @ covs[-1] @ f.T + q)
+        self.cov_table = np.array(covs)
+        super().__init__(sensors, n_pairs, config)
+
+    def _reset_state(self):
+        self.x = np.zeros((self.n_pairs, STATE_DIM))
+        self.since = np.zeros(self.n_pairs, dtype=np.int64)
+
+    def _drop(self, pairs):
+        pass
+
+    def _state(self):
+        k = np.minimum(self.since, len(self.cov_table) - 1)
+        return self.x, self.cov_table[k]
+
+    def _advance(self, z, r, valid):
+        j, ini = self.index, self.initialised
+        self.x[ini] = self.x[ini] @ self.f.T
+        self.since[ini] += 1
+        only = np.zeros_like(valid)
+        only[j] = valid[j]
+        init, x0, _, _ = self._initial(z, r, only)
+        self.x[init] = x0[init]
+        self.since[init] = 0
+        self.initialised |= init
+        upd = self.initialised & valid[j] & ~init
+        prior = self.cov_table[np.minimum(self.since, len(self.cov_table) - 1)]
+        self._nis[:, j] = self.engine.nis(
+            self.x,
+            prior,
+            z[j],
+            np.broadcast_to(self.r_nominal, r[j].shape),
+            self.h,
+            self._rows(upd),
+        )
+        y = z[j][upd] - self.x[upd] @ self.h.T
+        self.x[upd] += y @ self.gain.T
+        self.since[upd] = 0
+        return valid[j] & self.initialised
+
+
+def make_estimator(
+    config: FusionConfig | str,
+    sensors: Sequence[str],
+    n_pairs: int,
+    specs: Sequence[SensorSpec] | None = None,
+) -> Estimator:
     """Build the estimator named by ``config.method`` (or by a method name with defaults).
+
+    ``specs`` (the sensors' :class:`~acc_fusion.sensors.SensorSpec`, in the order of
+    ``sensors``) is needed only by the constant-gain filter (``local="steady"``).
 
     >>> est = make_estimator("federated", ("radar", "infrared"), n_pairs=4)
     >>> type(est).__name__
@@ -505,6 +590,15 @@ def make_estimator(config: FusionConfig | str, sensors: Sequence[str], n_pairs: 
         config = FusionConfig(method=config)
     sensors = tuple(sensors)
     method = check_choice("fusion.method", config.method, sensors + FUSION_METHODS)
+    if config.local == "steady":
+        if method not in sensors:
+            raise ConfigError(
+                f"fusion.local='steady' applies to single-sensor methods "
+                f"({', '.join(sensors)}), not to {method!r}"
+            )
+        if specs is None:
+            raise ConfigError("fusion.local='steady' needs the sensors' specs (specs=...)")
+        return SteadyStateFilter(sensors, n_pairs, config, spec=specs[sensors.index(method)])
     if method in sensors:
         return SingleSensorFilter(sensors, n_pairs, config, sensor=method)
     if method.startswith("centralized"):

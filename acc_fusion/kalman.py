@@ -285,3 +285,14 @@ def fuse(xs, ps, active, x_prior, p_prior, increments, x_out, p_out):  # pragma:
                 s += yi[i, j] * vec[j]
                 p_out[k, i, j] = 0.5 * (yi[i, j] + yi[j, i])
             x_out[k, i] = s
+
+
+def warmup() -> None:
+    """Compile (or load from numba's cache) every kernel, so that timings exclude it."""
+    x, p = np.zeros((1, 3)), np.eye(3)[None].copy()
+    z, r, h = np.zeros((1, 2)), np.eye(2)[None].copy(), np.eye(3)[:2].copy()
+    rows, out = np.ones((1, 2), dtype=bool), np.empty(1)
+    predict(x, p, np.eye(3), np.eye(3), np.ones(1), np.ones(1, dtype=bool))
+    update(x, p, z, r, h, rows, out)
+    innovation_nis(x, p, z, r, h, rows, out)
+    fuse(x[None], p[None], np.ones((1, 1), dtype=bool), x, p, True, x.copy(), p.copy())

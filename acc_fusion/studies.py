@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from acc_fusion import kalman
 from acc_fusion.faults import Fault
 from acc_fusion.fusion import FilterConfig, FusionConfig, make_estimator
 from acc_fusion.pipeline import chi2_mean_bounds, run_estimation
@@ -35,7 +36,7 @@ class Table:
     rows: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
-    def row(self, key: str, value: object, column: str | None = None) -> dict:
+    def row(self, value: object, column: str | None = None) -> dict:
         """The first row whose ``column`` (default: the first column) equals ``value``."""
         col = column or self.columns[0]
         return next(r for r in self.rows if r[col] == value)
@@ -204,6 +205,19 @@ def fault_tolerance(
     return table
 
 
+class _Timed:
+    """Wraps an estimator and adds the wall time of its ``step`` calls to ``timers[label]``."""
+
+    def __init__(self, est, timers: dict[str, float], label: str) -> None:
+        self.est, self.timers, self.label = est, timers, label
+
+    def step(self, meas, target):
+        t0 = time.perf_counter()
+        out = self.est.step(meas, target)
+        self.timers[self.label] += time.perf_counter() - t0
+        return out
+
+
 #: Methods of :func:`compare_methods`: label -> FusionConfig overrides.
 COMPARED_METHODS: dict[str, dict] = {
     "radar alone": {"method": "radar"},
@@ -233,23 +247,13 @@ def compare_methods(
         )
         for label, kw in COMPARED_METHODS.items()
     }
-    timers = {label: 0.0 for label in ests}
-
-    class Timed:
-        def __init__(self, label, est):
-            self.label, self.est = label, est
-
-        def step(self, meas, target):
-            t0 = time.perf_counter()
-            out = self.est.step(meas, target)
-            timers[self.label] += time.perf_counter() - t0
-            return out
-
+    timers = dict.fromkeys(ests, 0.0)
+    kalman.warmup()
     n_steps = int(round(duration / 0.05))
     res = run_estimation(
         _following_source(n_runs, seed),
         make_sensors(seed + 1),
-        {label: Timed(label, e) for label, e in ests.items()},
+        {label: _Timed(e, timers, label) for label, e in ests.items()},
         n_steps,
         score_from=1.0,
     )
@@ -275,6 +279,69 @@ def compare_methods(
                 "mean_nees": nees,
                 "nees_verdict": verdict,
                 "us_per_pair_step": 1e6 * timers[label] / (n_steps * n_runs),
+            }
+        )
+    return table
+
+
+def steady_vs_full(
+    n_runs: int = 500, duration: float = 10.0, seed: int = 0, sensor: str = "radar"
+) -> Table:
+    """Constant-gain (steady-state) local filter against the full Kalman filter.
+
+    Car following, one sensor; RMSE of gap and range-rate during the transient (first 2 s of
+    each track) and in steady state (after 4 s), mean NEES, and the cost per pair-step of
+    each (both on numpy/numba arrays, same run).
+    """
+    specs = [radar_spec(), infrared_spec()]
+    ests = {
+        "full KF": make_estimator(
+            FusionConfig(method=sensor, filter=FOLLOWING_FILTER), SENSOR_NAMES, n_runs, specs
+        ),
+        "steady-state KF": make_estimator(
+            FusionConfig(method=sensor, filter=FOLLOWING_FILTER, local="steady"),
+            SENSOR_NAMES,
+            n_runs,
+            specs,
+        ),
+    }
+    stats = {}
+    for phase, start, end in (("transient", 0.0, 2.0), ("steady", 4.0, duration)):
+        for est in ests.values():
+            est.reset()
+        timers = dict.fromkeys(ests, 0.0)
+        kalman.warmup()
+        n_steps = int(round(end / 0.05))
+        res = run_estimation(
+            _following_source(n_runs, seed),
+            make_sensors(seed + 1),
+            {label: _Timed(e, timers, label) for label, e in ests.items()},
+            n_steps,
+            score_from=start,
+        )
+        for label, st in res.estimators.items():
+            stats[(label, phase)] = st
+            stats[(label, "us")] = 1e6 * timers[label] / (n_steps * n_runs)
+    table = Table(
+        f"Steady-state vs full Kalman filter ({sensor}), {n_runs} runs x {duration:g} s",
+        (
+            "filter",
+            "transient_rmse_gap_m",
+            "steady_rmse_gap_m",
+            "steady_rmse_rate_mps",
+            "steady_mean_nees",
+            "us_per_pair_step",
+        ),
+    )
+    for label in ests:
+        table.rows.append(
+            {
+                "filter": label,
+                "transient_rmse_gap_m": stats[(label, "transient")].rmse_gap,
+                "steady_rmse_gap_m": stats[(label, "steady")].rmse_gap,
+                "steady_rmse_rate_mps": stats[(label, "steady")].rmse_rate,
+                "steady_mean_nees": stats[(label, "steady")].mean_nees,
+                "us_per_pair_step": stats[(label, "us")],
             }
         )
     return table
