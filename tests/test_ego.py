@@ -34,6 +34,10 @@ def test_yang2009_bias_converges_to_the_accelerometer_offset(seed: int) -> None:
     at_half = run.bias_est[np.searchsorted(run.t, 0.5)]
     assert abs(at_half.mean() - YANG2009_ACCEL_OFFSET) < 1.0
     assert np.all(np.abs(at_half - YANG2009_ACCEL_OFFSET) < 2.0)
+    # The ±0.5 band of the issue is reached on average at about 0.58 s (0.64 off at 0.5 s,
+    # 0.37 off at 0.7 s over 200 runs); checked at 0.7 s, robust for 20 runs.
+    at_07 = run.bias_est[np.searchsorted(run.t, 0.7)]
+    assert abs(at_07.mean() - YANG2009_ACCEL_OFFSET) < 0.5
     last_second = run.bias_est[run.t > run.t[-1] - 1.0].mean(axis=0)
     assert np.all(np.abs(last_second - YANG2009_ACCEL_OFFSET) < 0.2)
 
