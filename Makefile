@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $@
 
 run: $(STAMP)
-	$(BIN)/acc-fusion compare
+	$(BIN)/acc-fusion estimation
 
 test: $(STAMP)
 	$(BIN)/ruff check acc_fusion envs scripts tests
