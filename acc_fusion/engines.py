@@ -101,8 +101,12 @@ class BatchedBank(FilterBank):
         return nis
 
     def assign(self, j, mask, x, p):
-        self._x[j][mask] = x[mask]
-        self._p[j][mask] = p[mask]
+        if mask.all():
+            self._x[j] = x
+            self._p[j] = p
+        elif mask.any():
+            np.copyto(self._x[j], x, where=mask[:, None])
+            np.copyto(self._p[j], p, where=mask[:, None, None])
 
 
 class FilterpyBank(FilterBank):

@@ -271,26 +271,28 @@ class Estimator(ABC):
                     f"{np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
                 )
             v = np.asarray(m.valid, dtype=bool)
-            zv, rv = m.z[v], m.r[v]
-            if not (np.all(np.isfinite(zv)) and np.all(np.isfinite(rv))):
+            zi = np.where(v[:, None], m.z, 0.0)
+            ri = np.where(v[:, None, None], m.r, np.eye(2))
+            if not (np.isfinite(zi).all() and np.isfinite(ri).all()):
                 raise InputError(f"{name} has NaN or inf in a valid measurement or its covariance")
-            if np.any(zv[:, 0] < 0):
+            if (zi[:, 0] < 0).any():
                 raise InputError(
-                    f"{name} has a negative range ({zv[:, 0].min():g} m); ranges must be >= 0"
+                    f"{name} has a negative range ({zi[:, 0].min():g} m); ranges must be >= 0"
                 )
-            if np.any(rv[:, 0, 0] <= 0) or np.any(rv[:, 1, 1] <= 0):
+            if (ri[:, 0, 0] <= 0).any() or (ri[:, 1, 1] <= 0).any():
                 raise InputError(f"{name} has a non-positive measurement variance; it must be > 0")
-            z[i] = np.where(v[:, None], m.z, 0.0)
-            r[i] = np.where(v[:, None, None], m.r, np.eye(2))
-            valid[i] = v
+            z[i], r[i], valid[i] = zi, ri, v
         return z, r, valid, target_id.astype(np.int64)
 
     def _initial(self, z, r, valid):
         """Initial states from the first reporting sensor of each uninitialised pair.
 
-        Returns ``(init (N,), x0 (N, 3), p0 (N, 3, 3), consumed (S, N))``.
+        Returns ``(init (N,), x0 (N, 3), p0 (N, 3, 3), consumed (S, N))``; ``x0`` and ``p0``
+        are ``None`` when no pair starts a track at this step.
         """
         init = ~self.initialised & valid.any(axis=0)
+        if not init.any():
+            return init, None, None, np.zeros_like(valid)
         first = np.argmax(valid, axis=0)
         cols = np.arange(self.n_pairs)
         zf, rf = z[first, cols], r[first, cols]
@@ -329,8 +331,9 @@ class SingleSensorFilter(Estimator):
         only = np.zeros_like(valid)
         only[j] = valid[j]
         init, x0, p0, _ = self._initial(z, r, only)
-        self.bank.assign(0, init, x0, p0)
-        self.initialised |= init
+        if x0 is not None:
+            self.bank.assign(0, init, x0, p0)
+            self.initialised |= init
         rows = self._rows(self.initialised & valid[j] & ~init)
         self._nis[:, j] = self.bank.update(0, z[j], r[j], self.h, rows)
         return valid[j] & self.initialised
@@ -355,8 +358,9 @@ class CentralizedFilter(Estimator):
     def _advance(self, z, r, valid):
         self.bank.predict(self.f, self.q, 1.0, self.initialised[None])
         init, x0, p0, consumed = self._initial(z, r, valid)
-        self.bank.assign(0, init, x0, p0)
-        self.initialised |= init
+        if x0 is not None:
+            self.bank.assign(0, init, x0, p0)
+            self.initialised |= init
         use = self.initialised[None] & valid & ~consumed
         x_prior, p_prior = np.array(self.bank.x[0]), np.array(self.bank.p[0])
         for s in range(self.n_sensors):
@@ -442,8 +446,7 @@ class FederatedFilter(Estimator):
         else:
             w = np.where(active, self._beta0()[:, None], 0.0)
         total = w.sum(axis=0)
-        ok = total > 0
-        self.beta[:, ok] = w[:, ok] / total[ok]
+        np.divide(w, total, out=self.beta, where=total > 0)
 
     def _advance(self, z, r, valid):
         s_all = range(self.n_sensors)
@@ -452,7 +455,7 @@ class FederatedFilter(Estimator):
         self.locals.predict(self.f, self.q, self._inflation(), ini[None])
 
         init, x0, p0, consumed = self._initial(z, r, valid)
-        if init.any():
+        if x0 is not None:
             self._drop(init)
             self.master.assign(0, init, x0, p0)
             infl = self._inflation()
@@ -539,22 +542,23 @@ class SteadyStateFilter(Estimator):
         self.since = np.zeros(self.n_pairs, dtype=np.int64)
 
     def _drop(self, pairs):
-        pass
+        self.x[pairs] = 0.0
 
     def _state(self):
         k = np.minimum(self.since, len(self.cov_table) - 1)
         return self.x, self.cov_table[k]
 
     def _advance(self, z, r, valid):
-        j, ini = self.index, self.initialised
-        self.x[ini] = self.x[ini] @ self.f.T
-        self.since[ini] += 1
+        j = self.index
+        self.x = self.x @ self.f.T  # every pair: cheaper than selecting the tracked ones
+        self.since += 1
         only = np.zeros_like(valid)
         only[j] = valid[j]
         init, x0, _, _ = self._initial(z, r, only)
-        self.x[init] = x0[init]
-        self.since[init] = 0
-        self.initialised |= init
+        if x0 is not None:
+            self.x[init] = x0[init]
+            self.since[init] = 0
+            self.initialised |= init
         upd = self.initialised & valid[j] & ~init
         prior = self.cov_table[np.minimum(self.since, len(self.cov_table) - 1)]
         self._nis[:, j] = self.engine.nis(
@@ -565,8 +569,7 @@ class SteadyStateFilter(Estimator):
             self.h,
             self._rows(upd),
         )
-        y = z[j][upd] - self.x[upd] @ self.h.T
-        self.x[upd] += y @ self.gain.T
+        self.x += ((z[j] - self.x @ self.h.T) * upd[:, None]) @ self.gain.T
         self.since[upd] = 0
         return valid[j] & self.initialised
 

@@ -71,6 +71,45 @@ def _invert(a, out, work):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _inverse(a, out, work):  # pragma: no cover - compiled
+    """Inverse of the symmetric matrix ``a``: closed form for 1×1, 2×2 and 3×3, else pivoted
+    Gauss-Jordan.  (Covariances, innovation covariances and information matrices are
+    symmetric positive definite and well conditioned at these sizes.)"""
+    m = a.shape[0]
+    if m == 1:
+        out[0, 0] = 1.0 / a[0, 0]
+    elif m == 2:
+        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        out[0, 0] = a[1, 1] / det
+        out[0, 1] = -a[0, 1] / det
+        out[1, 0] = -a[1, 0] / det
+        out[1, 1] = a[0, 0] / det
+    elif m == 3:
+        c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+        c01 = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+        c02 = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+        c11 = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+        c12 = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+        c22 = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        det = (
+            a[0, 0] * c00
+            + a[0, 1] * (a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2])
+            + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
+        )
+        out[0, 0] = c00 / det
+        out[0, 1] = c01 / det
+        out[0, 2] = c02 / det
+        out[1, 0] = c01 / det
+        out[1, 1] = c11 / det
+        out[1, 2] = c12 / det
+        out[2, 0] = c02 / det
+        out[2, 1] = c12 / det
+        out[2, 2] = c22 / det
+    else:
+        _invert(a, out, work)
+
+
+@njit(cache=True)
 def predict(x, p, f, q, q_scale, mask):  # pragma: no cover - compiled
     r"""Time update in place: :math:`x \leftarrow F x`, :math:`P \leftarrow F P F^\top + s Q`.
 
@@ -145,7 +184,7 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
                 for j in range(n):
                     s += hs[a, j] * pht[j, b]
                 s_mat[a, b] = s + r[k, idx[a], idx[b]]
-        _invert(s_mat[:m, :m], si[:m, :m], work[:m, :m])
+        _inverse(s_mat[:m, :m], si[:m, :m], work[:m, :m])
         for i in range(n):  # K = P H^T S^-1
             for b in range(m):
                 s = 0.0
@@ -223,7 +262,7 @@ def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
                     for j in range(n):
                         s += h[idx[a], i] * p[k, i, j] * h[idx[b], j]
                 s_mat[a, b] = s + r[k, idx[a], idx[b]]
-        _invert(s_mat[:m, :m], si[:m, :m], work[:m, :m])
+        _inverse(s_mat[:m, :m], si[:m, :m], work[:m, :m])
         e = 0.0
         for a in range(m):
             for b in range(m):
@@ -264,7 +303,7 @@ def fuse(xs, ps, active, x_prior, p_prior, increments, x_out, p_out):  # pragma:
             for j in range(n):
                 info[i, j] = 0.0
         if increments:
-            _invert(p_prior[k], ym, work)
+            _inverse(p_prior[k], ym, work)
             w = 1.0 - count
             for i in range(n):
                 for j in range(n):
@@ -273,12 +312,12 @@ def fuse(xs, ps, active, x_prior, p_prior, increments, x_out, p_out):  # pragma:
         for si_ in range(n_s):
             if not active[si_, k]:
                 continue
-            _invert(ps[si_, k], yi, work)
+            _inverse(ps[si_, k], yi, work)
             for i in range(n):
                 for j in range(n):
                     info[i, j] += yi[i, j]
                     vec[i] += yi[i, j] * xs[si_, k, j]
-        _invert(info, yi, work)
+        _inverse(info, yi, work)
         for i in range(n):
             s = 0.0
             for j in range(n):

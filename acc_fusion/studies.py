@@ -9,7 +9,7 @@ batched over pairs), so hundreds of runs cost little more than one.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -78,7 +78,11 @@ def make_sensors(
 
 
 def kong2011(
-    n_runs: int = 200, duration: float = 30.0, seed: int = 0, engine: str = "batched"
+    n_runs: int = 200,
+    duration: float = 30.0,
+    seed: int = 0,
+    engine: str = "batched",
+    on_step: Callable | None = None,
 ) -> Table:
     """kong2011's simulation: a target at 3 m/s observed by radar and infrared, T = 1 s.
 
@@ -87,6 +91,7 @@ def kong2011(
     noise (the paper gives no noise figures).  Over ``n_runs`` Monte Carlo runs the table
     gives the RMSE of each raw sensor, each local Kalman filter and the federated fusion.
     The paper's claims: each local filter beats its raw sensor; the fused estimate beats both.
+    ``on_step`` is passed to :func:`~acc_fusion.pipeline.run_estimation` (for plots).
     """
     dt = 1.0
     fc = FusionConfig(
@@ -107,7 +112,7 @@ def kong2011(
         "infrared KF": make_estimator(replace(fc, method="infrared"), SENSOR_NAMES, n_runs),
         "federated": make_estimator(replace(fc, method="federated"), SENSOR_NAMES, n_runs),
     }
-    res = run_estimation(src, sensors, ests, int(round(duration / dt)))
+    res = run_estimation(src, sensors, ests, int(round(duration / dt)), on_step=on_step)
     table = Table(
         f"kong2011 set-up: target closing at 3 m/s, T = 1 s, {n_runs} Monte Carlo runs",
         ("estimate", "rmse_gap_m", "rmse_rate_mps"),
@@ -144,7 +149,7 @@ FAULT_SCENARIOS: dict[str, dict[str, tuple[Fault, ...]]] = {
 }
 
 
-def _following_source(n_runs: int, seed: int, gap: float = 20.0) -> LinearGaussianSource:
+def following_source(n_runs: int, seed: int, gap: float = 20.0) -> LinearGaussianSource:
     """Car following at ``gap`` ± 3 m with mild relative manoeuvres (jerk 0.5 m/s³), 20 Hz."""
     return LinearGaussianSource(
         n_runs,
@@ -184,7 +189,7 @@ def fault_tolerance(
                 iso["k"] += out["federated+FDI"].isolated.size
 
         res = run_estimation(
-            _following_source(n_runs, seed),
+            following_source(n_runs, seed),
             make_sensors(seed + 1, **kwargs),
             ests,
             int(round(duration / 0.05)),
@@ -251,7 +256,7 @@ def compare_methods(
     kalman.warmup()
     n_steps = int(round(duration / 0.05))
     res = run_estimation(
-        _following_source(n_runs, seed),
+        following_source(n_runs, seed),
         make_sensors(seed + 1),
         {label: _Timed(e, timers, label) for label, e in ests.items()},
         n_steps,
@@ -313,7 +318,7 @@ def steady_vs_full(
         kalman.warmup()
         n_steps = int(round(end / 0.05))
         res = run_estimation(
-            _following_source(n_runs, seed),
+            following_source(n_runs, seed),
             make_sensors(seed + 1),
             {label: _Timed(e, timers, label) for label, e in ests.items()},
             n_steps,

@@ -1,0 +1,84 @@
+"""Smoke tests of the scripts under ``scripts/``: each runs as a subprocess with small inputs."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def run(script: str, *args: str, ok: bool = True) -> subprocess.CompletedProcess:
+    """Run ``scripts/<script>`` with ``args``; with ``ok``, assert it exits with 0."""
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPTS / script), *args], capture_output=True, text=True, timeout=120
+    )
+    if ok:
+        assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def assert_png(path: Path) -> None:
+    assert path.read_bytes()[:8] == PNG_SIGNATURE
+    assert path.stat().st_size > 10_000  # a figure, not an empty canvas
+
+
+@pytest.mark.parametrize(
+    "script",
+    ["reproduce_kong2011.py", "fault_tolerance.py", "steady_state_vs_full.py", "bench_filters.py"],
+)
+def test_help(script):
+    out = run(script, "--help").stdout
+    assert out.startswith("usage:") and "--seed" in out
+
+
+@pytest.mark.parametrize(
+    ("script", "args", "message"),
+    [
+        ("reproduce_kong2011.py", ["--runs", "0"], "--runs must be >= 1"),
+        ("steady_state_vs_full.py", ["--sensor", "lidar"], "invalid choice: 'lidar'"),
+        ("bench_filters.py", ["--sizes", "0"], "must be a whole number >= 1"),
+    ],
+)
+def test_bad_arguments_are_argparse_errors(script, args, message):
+    proc = run(script, *args, ok=False)
+    assert proc.returncode == 2
+    assert message in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_reproduce_kong2011(tmp_path):
+    png = tmp_path / "plots" / "kong2011.png"
+    out = run("reproduce_kong2011.py", "--runs", "20", "--seed", "3", "--plot", str(png)).stdout
+    assert "kong2011 set-up: target closing at 3 m/s, T = 1 s, 20 Monte Carlo runs" in out
+    for row in ("radar raw", "infrared raw", "radar KF", "infrared KF", "federated"):
+        assert row in out
+    assert_png(png)
+
+
+def test_fault_tolerance(tmp_path):
+    png = tmp_path / "fault_tolerance.png"
+    out = run("fault_tolerance.py", "--runs", "20", "--plot", str(png)).stdout
+    assert "Fault tolerance: fused gap RMSE, 20 runs of 10 s" in out
+    assert "radar bias +5 m" in out and "centralized" in out
+    assert_png(png)
+
+
+def test_steady_state_vs_full():
+    out = run("steady_state_vs_full.py", "--runs", "20").stdout
+    assert "Steady-state vs full Kalman filter (radar), 20 runs" in out
+    assert "Steady-state vs full Kalman filter (infrared), 20 runs" in out
+    one = run("steady_state_vs_full.py", "--runs", "20", "--sensor", "infrared").stdout
+    assert "(infrared)" in one and "(radar)" not in one
+
+
+def test_bench_filters_quick():
+    out = run(
+        "bench_filters.py", "--quick", "--sizes", "200", "--steps", "2", "--reference-steps", "2"
+    ).stdout
+    assert "Cost per pair-step" in out and "filterpy" in out and "steady-state" in out
+    assert re.fullmatch(r"speedup_vs_filterpy=[0-9.]+", out.strip().splitlines()[-1])
