@@ -17,7 +17,8 @@ from collections.abc import Sequence
 from acc_fusion.errors import AccFusionError
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1."""
     try:
         value = int(text)
     except ValueError:
@@ -27,7 +28,8 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _positive_float(text: str) -> float:
+def positive_float(text: str) -> float:
+    """argparse type: a number > 0."""
     try:
         value = float(text)
     except ValueError:
@@ -35,6 +37,18 @@ def _positive_float(text: str) -> float:
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {value:g}")
     return value
+
+
+def study_parser(doc: str, runs: int, plot_help: str | None = None) -> argparse.ArgumentParser:
+    """Parser of a study script: ``--runs``, ``--seed`` and, with ``plot_help``, ``--plot``."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    parser.add_argument(
+        "--runs", type=positive_int, default=runs, help=f"Monte Carlo runs (default {runs})"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of truth and noise (default 0)")
+    if plot_help:
+        parser.add_argument("--plot", metavar="PATH", help=plot_help)
+    return parser
 
 
 def _cmd_estimation(args: argparse.Namespace) -> int:
@@ -71,10 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
         "with its 95%% bounds, and the cost per pair-step.",
     )
     est.add_argument(
-        "--runs", type=_positive_int, default=500, help="Monte Carlo runs (default 500)"
+        "--runs", type=positive_int, default=500, help="Monte Carlo runs (default 500)"
     )
     est.add_argument(
-        "--duration", type=_positive_float, default=10.0, help="seconds per run (default 10)"
+        "--duration", type=positive_float, default=10.0, help="seconds per run (default 10)"
     )
     est.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     est.add_argument(

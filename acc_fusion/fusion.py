@@ -309,21 +309,25 @@ class Estimator(ABC):
         return np.repeat(mask[:, None], m, axis=1)
 
 
-class SingleSensorFilter(Estimator):
-    """One sensor alone: its local Kalman filter (kong2011 eqs. 1-4)."""
-
-    def __init__(self, sensors, n_pairs, config, sensor: str) -> None:
-        self.index = list(sensors).index(sensor)
-        super().__init__(sensors, n_pairs, config)
+class _OneFilter(Estimator):
+    """An estimator made of one Kalman filter per pair."""
 
     def _reset_state(self):
         self.bank = self.engine.bank(1, self.n_pairs, STATE_DIM)
 
     def _drop(self, pairs):
-        pass
+        pass  # the filter is overwritten when the pair initialises again
 
     def _state(self):
         return self.bank.x[0], self.bank.p[0]
+
+
+class SingleSensorFilter(_OneFilter):
+    """One sensor alone: its local Kalman filter (kong2011 eqs. 1-4)."""
+
+    def __init__(self, sensors, n_pairs, config, sensor: str) -> None:
+        self.index = list(sensors).index(sensor)
+        super().__init__(sensors, n_pairs, config)
 
     def _advance(self, z, r, valid):
         j = self.index
@@ -339,21 +343,12 @@ class SingleSensorFilter(Estimator):
         return valid[j] & self.initialised
 
 
-class CentralizedFilter(Estimator):
+class CentralizedFilter(_OneFilter):
     """One Kalman filter updated by every sensor, sequentially or stacked."""
 
     def __init__(self, sensors, n_pairs, config, stacked: bool = False) -> None:
         self.stacked = stacked
         super().__init__(sensors, n_pairs, config)
-
-    def _reset_state(self):
-        self.bank = self.engine.bank(1, self.n_pairs, STATE_DIM)
-
-    def _drop(self, pairs):
-        pass
-
-    def _state(self):
-        return self.bank.x[0], self.bank.p[0]
 
     def _advance(self, z, r, valid):
         self.bank.predict(self.f, self.q, 1.0, self.initialised[None])

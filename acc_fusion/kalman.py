@@ -110,6 +110,17 @@ def _inverse(a, out, work):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _active_rows(rows, k, idx):  # pragma: no cover - compiled
+    """Put the indices of pair ``k``'s active measurement rows in ``idx``; return how many."""
+    m = 0
+    for i in range(rows.shape[1]):
+        if rows[k, i]:
+            idx[m] = i
+            m += 1
+    return m
+
+
+@njit(cache=True)
 def predict(x, p, f, q, q_scale, mask):  # pragma: no cover - compiled
     r"""Time update in place: :math:`x \leftarrow F x`, :math:`P \leftarrow F P F^\top + s Q`.
 
@@ -161,11 +172,7 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     ikh = np.empty((n, n))
     tmp = np.empty((n, n))
     for k in range(n_pairs):
-        m = 0
-        for i in range(m_all):
-            if rows[k, i]:
-                idx[m] = i
-                m += 1
+        m = _active_rows(rows, k, idx)
         if m == 0:
             nis[k] = np.nan
             continue
@@ -243,11 +250,7 @@ def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     work = np.empty((m_all, m_all))
     y = np.empty(m_all)
     for k in range(n_pairs):
-        m = 0
-        for i in range(m_all):
-            if rows[k, i]:
-                idx[m] = i
-                m += 1
+        m = _active_rows(rows, k, idx)
         if m == 0:
             nis[k] = np.nan
             continue

@@ -64,7 +64,12 @@ def write_csv_atomic(path: str | Path, columns: Sequence[str], rows: Sequence[di
 
 
 def save_figure_atomic(fig, path: str | Path, dpi: int = 120) -> Path:
-    """Save a matplotlib figure as PNG atomically."""
+    """Save a matplotlib figure as PNG atomically (creating its folder) and close it."""
+    import matplotlib.pyplot as plt
+
+    p = Path(path)
+    output_dir(p.parent)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    return write_bytes_atomic(path, buf.getvalue())
+    plt.close(fig)
+    return write_bytes_atomic(p, buf.getvalue())

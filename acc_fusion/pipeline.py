@@ -43,22 +43,37 @@ def chi2_mean_bounds(dof: int, count: int, confidence: float = 0.95) -> tuple[fl
 
 
 @dataclass
-class ErrorStats:
-    """Streaming error statistics of one estimator (running sums only).
+class _SquaredErrors:
+    """Running sums of squared gap and range-rate errors."""
 
-    ``nees_by_step`` keeps per-step sums when ``per_step`` is true (for Monte Carlo
-    consistency tests, where the NEES is averaged over runs at each step).
-    """
-
-    n_sensors: int = 2
-    per_step: bool = False
     count: int = 0
     sq_gap: float = 0.0
     sq_rate: float = 0.0
+
+    def _accumulate(self, gap_err: np.ndarray, rate_err: np.ndarray) -> None:
+        self.count += int(gap_err.size)
+        self.sq_gap += float(np.sum(gap_err**2))
+        self.sq_rate += float(np.sum(rate_err**2))
+
+    @property
+    def rmse_gap(self) -> float:
+        """RMSE of the gap [m]."""
+        return float(np.sqrt(self.sq_gap / max(self.count, 1)))
+
+    @property
+    def rmse_rate(self) -> float:
+        """RMSE of the range-rate [m/s]."""
+        return float(np.sqrt(self.sq_rate / max(self.count, 1)))
+
+
+@dataclass
+class ErrorStats(_SquaredErrors):
+    """Streaming error statistics of one estimator (running sums only)."""
+
+    n_sensors: int = 2
     nees_sum: float = 0.0
     nis_sum: np.ndarray = field(default=None)  # type: ignore[assignment]
     nis_count: np.ndarray = field(default=None)  # type: ignore[assignment]
-    nees_by_step: list[tuple[float, int]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if self.nis_sum is None:
@@ -71,27 +86,14 @@ class ErrorStats:
         if mask is not None:
             use &= mask
         e = est.x[use] - truth.state[use]
-        nees = np.einsum("ni,ni->n", e, np.linalg.solve(est.p[use], e[..., None])[..., 0])
-        self.count += int(use.sum())
-        self.sq_gap += float(np.sum(e[:, 0] ** 2))
-        self.sq_rate += float(np.sum(e[:, 1] ** 2))
-        self.nees_sum += float(nees.sum())
-        if self.per_step:
-            self.nees_by_step.append((float(nees.sum()), int(use.sum())))
+        self._accumulate(e[:, 0], e[:, 1])
+        self.nees_sum += float(
+            np.einsum("ni,ni->", e, np.linalg.solve(est.p[use], e[..., None])[..., 0])
+        )
         nis = est.nis[use]
         ok = np.isfinite(nis)
         self.nis_sum += np.where(ok, nis, 0.0).sum(axis=0)
         self.nis_count += ok.sum(axis=0)
-
-    @property
-    def rmse_gap(self) -> float:
-        """RMSE of the gap [m]."""
-        return float(np.sqrt(self.sq_gap / max(self.count, 1)))
-
-    @property
-    def rmse_rate(self) -> float:
-        """RMSE of the range-rate [m/s]."""
-        return float(np.sqrt(self.sq_rate / max(self.count, 1)))
 
     @property
     def mean_nees(self) -> float:
@@ -105,28 +107,14 @@ class ErrorStats:
 
 
 @dataclass
-class RawStats:
+class RawStats(_SquaredErrors):
     """Streaming RMSE of one sensor's raw measurements (range and range-rate)."""
-
-    count: int = 0
-    sq_gap: float = 0.0
-    sq_rate: float = 0.0
 
     def add(self, m: Measurement, truth: TruthFrame, mask: np.ndarray | None = None) -> None:
         use = m.valid & truth.has_leader
         if mask is not None:
             use &= mask
-        self.count += int(use.sum())
-        self.sq_gap += float(np.sum((m.z[use, 0] - truth.gap[use]) ** 2))
-        self.sq_rate += float(np.sum((m.z[use, 1] - truth.range_rate[use]) ** 2))
-
-    @property
-    def rmse_gap(self) -> float:
-        return float(np.sqrt(self.sq_gap / max(self.count, 1)))
-
-    @property
-    def rmse_rate(self) -> float:
-        return float(np.sqrt(self.sq_rate / max(self.count, 1)))
+        self._accumulate(m.z[use, 0] - truth.gap[use], m.z[use, 1] - truth.range_rate[use])
 
 
 @dataclass
@@ -146,7 +134,6 @@ def run_estimation(
     *,
     score_from: float = 0.0,
     common: bool = True,
-    per_step: bool = False,
     progress: bool = False,
     on_step: Callable[[TruthFrame, list[Measurement], dict[str, Estimate]], None] | None = None,
 ) -> EstimationResult:
@@ -159,7 +146,7 @@ def run_estimation(
     the truth, the measurements and the estimates of each step (for plots and traces).
     """
     n_sensors = len(sensors)
-    stats = {name: ErrorStats(n_sensors, per_step=per_step) for name in estimators}
+    stats = {name: ErrorStats(n_sensors=n_sensors) for name in estimators}
     raw = {s.spec.name: RawStats() for s in sensors}
     frame = source.frame()
     for _ in tqdm(range(n_steps), disable=not progress, desc="steps", unit="step"):

@@ -331,12 +331,17 @@ class Sensor:
         ((1, 2), (1, 2, 2), True)
     """
 
+    #: Spec used when none is given (subclasses set it); ``None``: a spec is required.
+    default_spec = None
+
     def __init__(
         self,
-        spec: SensorSpec,
+        spec: SensorSpec | None = None,
         faults: Sequence[Fault] = (),
         seed: int | np.random.Generator | None = None,
     ) -> None:
+        if spec is None and self.default_spec is not None:
+            spec = self.default_spec()
         if not isinstance(spec, SensorSpec):
             raise ConfigError(f"spec must be a SensorSpec, got {type(spec).__name__}")
         for i, fault in enumerate(faults):
@@ -479,22 +484,10 @@ def _empty(t: float, name: str, n: int) -> Measurement:
 class RadarSensor(Sensor):
     """A :class:`Sensor` whose spec defaults to :func:`radar_spec`."""
 
-    def __init__(
-        self,
-        spec: SensorSpec | None = None,
-        faults: Sequence[Fault] = (),
-        seed: int | np.random.Generator | None = None,
-    ) -> None:
-        super().__init__(radar_spec() if spec is None else spec, faults, seed)
+    default_spec = staticmethod(radar_spec)
 
 
 class InfraredSensor(Sensor):
     """A :class:`Sensor` whose spec defaults to :func:`infrared_spec`."""
 
-    def __init__(
-        self,
-        spec: SensorSpec | None = None,
-        faults: Sequence[Fault] = (),
-        seed: int | np.random.Generator | None = None,
-    ) -> None:
-        super().__init__(infrared_spec() if spec is None else spec, faults, seed)
+    default_spec = staticmethod(infrared_spec)

@@ -11,11 +11,10 @@ writes a grouped bar chart of the ratios (log scale, 1.5 marked).
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
 
+from acc_fusion.cli import study_parser
+from acc_fusion.outputs import save_figure_atomic
 from acc_fusion.studies import Table, fault_tolerance
 
 #: Ratio to the healthy RMSE marked on the plot (a fault-tolerant method stays below it).
@@ -48,21 +47,12 @@ def plot(table: Table, path: str) -> None:
     ax.set_title(table.title, fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure_atomic(fig, path)
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--runs", type=int, default=200, help="Monte Carlo runs, >= 1 (default 200)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of truth and noise (default 0)")
-    parser.add_argument("--plot", metavar="PATH", help="write a bar chart of the ratios here")
+    parser = study_parser(__doc__, runs=200, plot_help="write a bar chart of the ratios here")
     args = parser.parse_args(argv)
-    if args.runs < 1:
-        parser.error(f"--runs must be >= 1, got {args.runs}")
     table = fault_tolerance(n_runs=args.runs, seed=args.seed)
     print(table.format())
     if args.plot:

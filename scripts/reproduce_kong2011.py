@@ -13,12 +13,12 @@ filter and of the federated filter over time, and below it the gap error of each
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.cli import study_parser
+from acc_fusion.outputs import save_figure_atomic
 from acc_fusion.studies import SENSOR_NAMES, kong2011
 
 ESTIMATORS = ("radar KF", "infrared KF", "federated")
@@ -78,21 +78,12 @@ def plot(trace: Trace, seed: int, path: str) -> None:
         f"kong2011 set-up, run 0 (seed {seed}): target closing at 3 m/s, T = 1 s, radar + infrared"
     )
     fig.tight_layout(rect=(0, 0.04, 1, 1))
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure_atomic(fig, path)
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--runs", type=int, default=200, help="Monte Carlo runs, >= 1 (default 200)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of truth and noise (default 0)")
-    parser.add_argument("--plot", metavar="PATH", help="write a PNG of run 0 here")
+    parser = study_parser(__doc__, runs=200, plot_help="write a PNG of run 0 here")
     args = parser.parse_args(argv)
-    if args.runs < 1:
-        parser.error(f"--runs must be >= 1, got {args.runs}")
     trace = Trace()
     table = kong2011(n_runs=args.runs, seed=args.seed, on_step=trace.record if args.plot else None)
     print(table.format())

@@ -12,11 +12,11 @@ within about 0.5 s (see the docstring of acc_fusion.ego for the sign).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
 from acc_fusion.ego import YANG2009_ACCEL_OFFSET, Yang2009Run, simulate_yang2009
+from acc_fusion.outputs import save_figure_atomic
 
 WINDOW_EDGES = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0, 3.0, 4.0)
 
@@ -58,9 +58,7 @@ def plot(run: Yang2009Run, path: str) -> None:
     ax_b.legend(loc="upper right", fontsize=8)
     fig.suptitle("yang2009 §4: speed sensor + accelerometer with bias state")
     fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure_atomic(fig, path)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -11,25 +11,18 @@ cost per pair-step of each, measured in the same run.
 
 from __future__ import annotations
 
-import argparse
-
+from acc_fusion.cli import study_parser
 from acc_fusion.studies import SENSOR_NAMES, steady_vs_full
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--runs", type=int, default=500, help="Monte Carlo runs, >= 1 (default 500)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of truth and noise (default 0)")
+    parser = study_parser(__doc__, runs=500)
     parser.add_argument(
         "--sensor",
         choices=SENSOR_NAMES,
         help="the sensor whose local filter is compared (default: each in turn)",
     )
     args = parser.parse_args(argv)
-    if args.runs < 1:
-        parser.error(f"--runs must be >= 1, got {args.runs}")
     sensors = [args.sensor] if args.sensor else SENSOR_NAMES
     print(
         "\n\n".join(

@@ -40,7 +40,7 @@ def test_help(script):
 @pytest.mark.parametrize(
     ("script", "args", "message"),
     [
-        ("reproduce_kong2011.py", ["--runs", "0"], "--runs must be >= 1"),
+        ("reproduce_kong2011.py", ["--runs", "0"], "--runs: must be >= 1"),
         ("steady_state_vs_full.py", ["--sensor", "lidar"], "invalid choice: 'lidar'"),
         ("bench_filters.py", ["--sizes", "0"], "must be a whole number >= 1"),
     ],
