@@ -105,14 +105,14 @@ class WindowedChiSquare:
         accepted = healthy & (passed | common[:, None])
         record = reported & ~common[:, None]
 
-        pi, si = np.nonzero(record)
-        slot = self._pos[pi, si]
-        value = np.minimum(nis[pi, si], self.clip)
-        self._sum[pi, si] += value - self._buf[pi, si, slot]
-        self._buf[pi, si, slot] = value
         w = self._buf.shape[2]
-        self._pos[pi, si] = (slot + 1) % w
-        self._count[pi, si] = np.minimum(self._count[pi, si] + 1, w)
+        slot = self._pos[..., None]
+        old = np.take_along_axis(self._buf, slot, axis=2)[..., 0]
+        value = np.where(record, np.minimum(nis, self.clip), old)
+        np.put_along_axis(self._buf, slot, value[..., None], axis=2)
+        self._sum += value - old
+        self._pos = np.where(record, (self._pos + 1) % w, self._pos)
+        self._count = np.where(record, np.minimum(self._count + 1, w), self._count)
 
         full = self._count == w
         fail = full & (self._sum > self.threshold)

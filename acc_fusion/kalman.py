@@ -12,7 +12,7 @@ two engines agree to rounding error:
     \hat x^- = F \hat x,\qquad P^- = F P F^\top + s\,Q                                   \\
     y = z - H \hat x^-,\quad S = H P^- H^\top + R,\quad K = P^- H^\top S^{-1}          \\
     \hat x = \hat x^- + K y,\qquad
-    P = (I - K H) P^- (I - K H)^\top + K R K^\top \quad\text{(Joseph form)}               \\
+    P = P^- - K S K^\top \quad\text{(filterpy: the Joseph form, equal for the optimal } K)   \\
     \epsilon_\nu = y^\top S^{-1} y \quad\text{(NIS: the square of filterpy's ``mahalanobis``)}
 
 where :math:`s` is a per-filter process-noise scale (:math:`1/\beta_i` in the federated filter).
@@ -154,7 +154,11 @@ def predict(x, p, f, q, q_scale, mask):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
-    r"""Measurement update in place (Joseph form) using the active rows of each pair.
+    r"""Measurement update in place using the active rows of each pair.
+
+    The covariance update is :math:`P - K S K^\top = P - K (P H^\top)^\top`, kept exactly
+    symmetric; with the optimal gain it equals filterpy's Joseph form to rounding error
+    (the engines test holds them equal to 1e-9) at a fifth of the cost.
 
     Shapes: ``x (N, n)``, ``p (N, n, n)``, ``z (N, m)``, ``r (N, m, m)``, ``h (m, n)``,
     ``rows (N, m)`` bool (which measurement rows pair ``k`` has), ``nis (N,)`` output.
@@ -169,8 +173,6 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     work = np.empty((m_all, m_all))
     kg = np.empty((n, m_all))
     y = np.empty(m_all)
-    ikh = np.empty((n, n))
-    tmp = np.empty((n, n))
     for k in range(n_pairs):
         m = _active_rows(rows, k, idx)
         if m == 0:
@@ -213,30 +215,14 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
             for a in range(m):
                 s += kg[i, a] * y[a]
             x[k, i] += s
-        for i in range(n):  # I - K H
-            for j in range(n):
-                s = 0.0
-                for a in range(m):
-                    s += kg[i, a] * hs[a, j]
-                ikh[i, j] = (1.0 if i == j else 0.0) - s
-        for i in range(n):  # (I-KH) P
-            for j in range(n):
-                s = 0.0
-                for c in range(n):
-                    s += ikh[i, c] * p[k, c, j]
-                tmp[i, j] = s
-        for i in range(n):  # (I-KH) P (I-KH)^T + K R K^T
-            for j in range(n):
-                s = 0.0
-                for c in range(n):
-                    s += tmp[i, c] * ikh[j, c]
+        for i in range(n):  # P - K (H P) = P - K S K^T, upper triangle mirrored
+            for j in range(i, n):
                 t = 0.0
                 for a in range(m):
-                    u = 0.0
-                    for b in range(m):
-                        u += kg[i, b] * r[k, idx[b], idx[a]]
-                    t += u * kg[j, a]
-                p[k, i, j] = s + t
+                    t += kg[i, a] * pht[j, a]
+                v = p[k, i, j] - t
+                p[k, i, j] = v
+                p[k, j, i] = v
 
 
 @njit(cache=True)
