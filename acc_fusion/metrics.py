@@ -1,0 +1,390 @@
+r"""Streaming event-level metrics of a forward-collision-warning system against its oracle.
+
+Every step the caller gives, for N pairs, the system's warning level and the *oracle's* (the
+same warning rule evaluated on ground truth), as int8 arrays: 0 none, 1 caution, 2
+imminent.  A pair *warns* at a step when it is active and ``system >= warn_level``; it is
+*threatened* when it is active and ``oracle >= warn_level``.
+
+Intervals and events
+    An *interval* is a maximal run of steps with the flag set.  It starts at the time
+    :math:`t_s` of its first step and ends at the time :math:`t_e` of the first step
+    without the flag (the flag cleared, the pair inactive, or the run finished), so it
+    covers :math:`[t_s, t_e)`.  The *gap* between two intervals is the time from the end of
+    the earlier to the start of the later one (0 when they overlap).
+
+    Intervals of the same kind whose gap is at most the tolerance :math:`\tau` are merged
+    into one *event*: a *warning* (system) or a *threat* (oracle).  A warning that flickers
+    off and on within :math:`\tau` is one warning, as the driver perceives it.  An event
+    starts at the start of its first interval and is *live* while one of its intervals is
+    open and until :math:`\tau` after the end of its last one; a new interval of the same
+    kind that starts while the event is live extends it.
+
+Matching
+    A warning and a threat *match* when their gap is at most :math:`\tau`, that is, when
+    both are live at the same step (both-live implies gap :math:`\le \tau`, and the later
+    one's first step sees the earlier one still live, with a slack of :math:`10^{-6}\,dt`
+    for the rounding of step times).
+
+    * **False alarm**: a warning that matches no threat.
+    * **Missed warning**: a threat that matches no warning; a **detected** threat matches
+      at least one.
+    * **Lead time** of a detected threat: its onset time minus the onset time of the first
+      warning it matches (positive = the system warned earlier).  A warning that spans
+      several threats gives each of them its lead time.
+    * **TTC at warning**: the true time to collision at a warning's first step, over all
+      warnings and, separately, over matched warnings.
+
+    For intervals of the same kind separated by more than :math:`\tau` events are the
+    intervals themselves, and these rules are exactly the definitions "a warning interval
+    with no threat interval within :math:`\pm\tau`" and "a threat interval with no warning
+    within :math:`\pm\tau`".  When several intervals fall within :math:`\tau` of each
+    other they count as one event, and lead times and TTCs are taken at the onset of that
+    event's first interval.
+
+Counting
+    Every figure is counted when it becomes known: warnings and threats at their onset (and
+    the TTC at warning over all warnings), detections and lead times when a threat first
+    matches (the TTC of a matched warning when it first matches), false alarms and misses
+    when an unmatched event stops being live, and the events still live when :meth:`finish`
+    is called.  Call :meth:`finish` at the end of a run before reading the summary.
+
+Inactive pairs close their open intervals; an event's tail still runs on time, so a pair
+that is inactive for less than :math:`\tau` can still match across the gap.  Pairs flagged
+``collided`` count one collision per run of flagged steps (whether or not active).
+Exposure (hours, km) and the per-step confusion matrix count active pair-steps only.
+
+Memory is constant: a few per-pair arrays, a fixed number of counters, and fixed-bin
+histograms (:class:`acc_fusion.stats.Histogram`) for lead times and TTCs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from acc_fusion.errors import ConfigError, InputError
+from acc_fusion.stats import Distribution, Histogram, Rate
+from acc_fusion.validation import check_array, check_range
+
+#: Names of the warning levels, indexed by level.
+LEVELS = ("none", "caution", "imminent")
+
+#: Histogram bins [s]: lead time over [-60, 60) and TTC over [0, 60), 0.01 s wide.
+LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
+TTC_BINS = (0.0, 60.0, 0.01)
+
+_COUNTS = ("warnings", "false_alarms", "threats", "detected", "missed", "collisions")
+
+
+class _Events:
+    """Per-pair state of one kind of event (warnings or threats); see the module docstring.
+
+    ``on``: the flag was set at the last step; ``live``, ``matched``: the pair's current
+    event; ``start``: its onset time; ``end``: the end of its last closed interval.
+    """
+
+    def __init__(self, n_pairs: int) -> None:
+        self.on = np.zeros(n_pairs, dtype=bool)
+        self.live = np.zeros(n_pairs, dtype=bool)
+        self.matched = np.zeros(n_pairs, dtype=bool)
+        self.start = np.zeros(n_pairs)
+        self.end = np.zeros(n_pairs)
+
+    def step(self, t: float, now: np.ndarray, horizon: float) -> tuple[np.ndarray, int]:
+        """Advance to time ``t`` with the flags ``now``.
+
+        Returns the pairs whose new event starts at ``t`` and the number of unmatched events
+        that stopped being live (their tail passed ``horizon`` after their last interval).
+        """
+        held = self.on & now
+        self.end[self.on & ~now] = t
+        expired = self.live & ~held & (t - self.end > horizon)
+        unmatched = int(np.count_nonzero(expired & ~self.matched))
+        self.live &= ~expired
+        new = now & ~self.on & ~self.live
+        self.live |= new
+        self.matched[new] = False
+        self.start[new] = t
+        self.on[:] = now
+        return new, unmatched
+
+    def finish(self) -> int:
+        """End every event; returns the number of unmatched ones."""
+        unmatched = int(np.count_nonzero(self.live & ~self.matched))
+        self.on[:] = False
+        self.live[:] = False
+        return unmatched
+
+
+@dataclass(frozen=True)
+class FCWSummary:
+    """Event-level FCW metrics of one or more runs (see :mod:`acc_fusion.metrics`).
+
+    Attributes:
+        warn_level, tolerance, confidence: the rule the figures follow (level, s) and the
+            confidence of the intervals.
+        warnings, false_alarms, threats, detected, missed, collisions: event counts.
+        hours, km: exposure, over active pair-steps.
+        false_alarms_per_hour, false_alarms_per_100km: exact Poisson rates.
+        miss_rate: missed / threats; false_alarm_ratio: false_alarms / warnings (Wilson).
+        lead_time: lead times [s] of the detected threats.
+        ttc_at_warning: true TTC [s] at the onset of matched warnings.
+        ttc_at_any_warning: true TTC [s] at the onset of all warnings.
+        confusion: active pair-steps by oracle level (rows) and system level (columns).
+    """
+
+    warn_level: int
+    tolerance: float
+    confidence: float
+    warnings: int
+    false_alarms: int
+    threats: int
+    detected: int
+    missed: int
+    collisions: int
+    hours: float
+    km: float
+    false_alarms_per_hour: Rate
+    false_alarms_per_100km: Rate
+    miss_rate: Rate
+    false_alarm_ratio: Rate
+    lead_time: Distribution
+    ttc_at_warning: Distribution
+    ttc_at_any_warning: Distribution
+    confusion: tuple[tuple[int, int, int], ...]
+
+    def as_dict(self) -> dict:
+        """Plain nested dicts; NaN and ±inf (undefined, unbounded) become ``None``."""
+
+        def clean(x: object) -> object:
+            if isinstance(x, dict):
+                return {k: clean(v) for k, v in x.items()}
+            if isinstance(x, (tuple, list)):
+                return [clean(v) for v in x]
+            if isinstance(x, float) and not math.isfinite(x):
+                return None
+            return x
+
+        return clean(asdict(self))
+
+    def format(self) -> str:
+        """A readable multi-line summary."""
+        pct = int(round(100 * self.confidence))
+        width = max(len(name) for name in LEVELS)
+        header = "oracle \\ system".ljust(16) + " ".join(n.rjust(width + 2) for n in LEVELS)
+        rows = [
+            f"  {name:<14}" + " ".join(str(c).rjust(width + 2) for c in counts)
+            for name, counts in zip(LEVELS, self.confusion, strict=True)
+        ]
+        return "\n".join(
+            [
+                f"FCW metrics: warning level >= {self.warn_level} ({LEVELS[self.warn_level]}), "
+                f"tolerance {self.tolerance:g} s, {pct} % intervals",
+                f"exposure              {self.hours:.4g} h, {self.km:.4g} km",
+                f"warnings              {self.warnings} ({self.false_alarms} false alarms)",
+                f"threats               {self.threats} ({self.detected} detected, "
+                f"{self.missed} missed)",
+                f"collisions            {self.collisions}",
+                f"false alarms / h      {self.false_alarms_per_hour.format()}",
+                f"false alarms / 100 km {self.false_alarms_per_100km.format()}",
+                f"miss rate             {self.miss_rate.format()}",
+                f"false-alarm ratio     {self.false_alarm_ratio.format()}",
+                f"lead time [s]         {self.lead_time.format()}",
+                f"TTC at warning [s]    matched: {self.ttc_at_warning.format()}",
+                f"                      all:     {self.ttc_at_any_warning.format()}",
+                "confusion (active pair-steps):",
+                "  " + header,
+                *rows,
+            ]
+        )
+
+
+class FCWMetrics:
+    """Streaming false-alarm, miss, lead-time and TTC metrics over N pairs.
+
+    Args:
+        n_pairs: number of pairs N.
+        dt: step length [s] (exposure counts ``dt`` per active pair-step).
+        tolerance: :math:`\\tau` [s], the matching window (default 1 s).
+        warn_level: the level that counts as a warning: 1 caution (default) or 2 imminent.
+
+    Call :meth:`update` every step, :meth:`finish` at the end of a run, then
+    :meth:`summary`.  After :meth:`finish` the instance can record another run (its time
+    may start again); :meth:`merge` adds the counts of another finished instance.
+    """
+
+    def __init__(self, n_pairs: int, dt: float, tolerance: float = 1.0, warn_level: int = 1):
+        if isinstance(n_pairs, bool) or not isinstance(n_pairs, (int, np.integer)) or n_pairs < 1:
+            raise ConfigError(f"n_pairs must be a whole number >= 1, got {n_pairs!r}")
+        if warn_level not in (1, 2) or isinstance(warn_level, bool):
+            raise ConfigError(f"warn_level must be 1 (caution) or 2 (imminent), got {warn_level!r}")
+        self.n_pairs = int(n_pairs)
+        self.dt = check_range("dt", dt, 0.0, math.inf, lo_open=True, hi_open=True)
+        self.tolerance = check_range("tolerance", tolerance, 0.0, math.inf, hi_open=True)
+        self.warn_level = int(warn_level)
+        self._horizon = self.tolerance + 1e-6 * self.dt
+        self._warnings = _Events(self.n_pairs)
+        self._threats = _Events(self.n_pairs)
+        self._onset_ttc = np.zeros(self.n_pairs)
+        self._collided = np.zeros(self.n_pairs, dtype=bool)
+        self._last_t = -math.inf
+        self._count = dict.fromkeys(_COUNTS, 0)
+        self._driven_s = 0.0
+        self._distance_m = 0.0
+        self._confusion = np.zeros((3, 3), dtype=np.int64)
+        self._lead_time = Histogram(*LEAD_TIME_BINS)
+        self._ttc_matched = Histogram(*TTC_BINS)
+        self._ttc_all = Histogram(*TTC_BINS)
+
+    def _levels(self, name: str, value: object) -> np.ndarray:
+        arr = np.asarray(value)
+        if arr.shape != (self.n_pairs,) or arr.dtype.kind not in "iu":
+            raise InputError(
+                f"{name} must be an integer array of shape ({self.n_pairs},), "
+                f"got {arr.dtype} of shape {arr.shape}"
+            )
+        if arr.min() < 0 or arr.max() > 2:
+            raise InputError(
+                f"{name} must hold levels 0 (none), 1 (caution) or 2 (imminent), "
+                f"got values in [{arr.min()}, {arr.max()}]"
+            )
+        return arr
+
+    def _mask(self, name: str, value: object) -> np.ndarray:
+        arr = np.asarray(value)
+        if arr.shape != (self.n_pairs,) or arr.dtype != bool:
+            raise InputError(
+                f"{name} must be a boolean array of shape ({self.n_pairs},), "
+                f"got {arr.dtype} of shape {arr.shape}"
+            )
+        return arr
+
+    def _check_time(self, t: float) -> float:
+        t = float(t)
+        if not t > self._last_t or not math.isfinite(t):
+            raise InputError(f"t must be finite and increase from step to step, got {t!r}")
+        return t
+
+    def update(
+        self,
+        t: float,
+        system: np.ndarray,
+        oracle: np.ndarray,
+        ttc: np.ndarray,
+        speed: np.ndarray,
+        active: np.ndarray,
+        collided: np.ndarray | None = None,
+    ) -> None:
+        """Record one step at time ``t`` [s].
+
+        Args:
+            system, oracle: warning levels (N,) of the system and of the oracle.
+            ttc: true time to collision (N,) [s], ``inf`` when not closing (any value for
+                inactive pairs).
+            speed: ego speed (N,) [m/s], for the distance driven.
+            active: pairs driven this step; the others close their intervals.
+            collided: pairs that collided at this step (default: none).
+        """
+        t = self._check_time(t)
+        system = self._levels("system", system)
+        oracle = self._levels("oracle", oracle)
+        active = self._mask("active", active)
+        ttc = check_array("ttc", ttc, (self.n_pairs,), finite=False, nonnegative=True, where=active)
+        if np.isnan(ttc[active]).any():
+            raise InputError("ttc must be a number >= 0 or inf where active, got NaN")
+        speed = check_array("speed", speed, (self.n_pairs,), nonnegative=True, where=active)
+        collided = (
+            np.zeros(self.n_pairs, dtype=bool)
+            if collided is None
+            else self._mask("collided", collided)
+        )
+        self._last_t = t
+
+        warn_new, false_alarms = self._warnings.step(
+            t, active & (system >= self.warn_level), self._horizon
+        )
+        threat_new, missed = self._threats.step(
+            t, active & (oracle >= self.warn_level), self._horizon
+        )
+        self._onset_ttc[warn_new] = ttc[warn_new]
+        self._ttc_all.add(ttc[warn_new])
+
+        both = self._warnings.live & self._threats.live
+        warn_matched = both & ~self._warnings.matched
+        threat_matched = both & ~self._threats.matched
+        self._warnings.matched |= both
+        self._threats.matched |= both
+        self._ttc_matched.add(self._onset_ttc[warn_matched])
+        self._lead_time.add(
+            self._threats.start[threat_matched] - self._warnings.start[threat_matched]
+        )
+
+        n_active = int(np.count_nonzero(active))
+        cells = 3 * oracle[active].astype(np.intp) + system[active]
+        self._confusion += np.bincount(cells, minlength=9).reshape(3, 3)
+        self._driven_s += n_active * self.dt
+        self._distance_m += float(speed[active].sum()) * self.dt
+        count = self._count
+        count["warnings"] += int(np.count_nonzero(warn_new))
+        count["threats"] += int(np.count_nonzero(threat_new))
+        count["detected"] += int(np.count_nonzero(threat_matched))
+        count["false_alarms"] += false_alarms
+        count["missed"] += missed
+        count["collisions"] += int(np.count_nonzero(collided & ~self._collided))
+        self._collided[:] = collided
+
+    def finish(self, t: float) -> None:
+        """End the run at time ``t`` (>= the last step's time): resolve every open event.
+
+        No interval can start after the run, so every live warning or threat is final:
+        unmatched ones count as false alarms or misses now.
+        """
+        if not float(t) >= self._last_t:
+            raise InputError(f"t must not be before the last step's time, got {t!r}")
+        self._count["false_alarms"] += self._warnings.finish()
+        self._count["missed"] += self._threats.finish()
+        self._collided[:] = False
+        self._last_t = -math.inf
+
+    def merge(self, other: FCWMetrics) -> None:
+        """Add the counts, exposure and distributions of ``other`` (a finished instance)."""
+        if (other.warn_level, other.tolerance) != (self.warn_level, self.tolerance):
+            raise InputError(
+                "merge needs the same warn_level and tolerance, got "
+                f"{other.warn_level} and {other.tolerance:g} s for "
+                f"{self.warn_level} and {self.tolerance:g} s"
+            )
+        if other._warnings.live.any() or other._threats.live.any():
+            raise InputError("merge needs a finished instance: call finish(t) on it first")
+        for name in _COUNTS:
+            self._count[name] += other._count[name]
+        self._driven_s += other._driven_s
+        self._distance_m += other._distance_m
+        self._confusion += other._confusion
+        self._lead_time.merge(other._lead_time)
+        self._ttc_matched.merge(other._ttc_matched)
+        self._ttc_all.merge(other._ttc_all)
+
+    def summary(self, confidence: float = 0.95) -> FCWSummary:
+        """The metrics so far (complete after :meth:`finish`), intervals at ``confidence``."""
+        count = self._count
+        hours = self._driven_s / 3600.0
+        km = self._distance_m / 1000.0
+        return FCWSummary(
+            warn_level=self.warn_level,
+            tolerance=self.tolerance,
+            confidence=float(confidence),
+            **count,
+            hours=hours,
+            km=km,
+            false_alarms_per_hour=Rate.poisson(count["false_alarms"], hours, confidence),
+            false_alarms_per_100km=Rate.poisson(count["false_alarms"], km / 100.0, confidence),
+            miss_rate=Rate.proportion(count["missed"], count["threats"], confidence),
+            false_alarm_ratio=Rate.proportion(count["false_alarms"], count["warnings"], confidence),
+            lead_time=self._lead_time.distribution(),
+            ttc_at_warning=self._ttc_matched.distribution(),
+            ttc_at_any_warning=self._ttc_all.distribution(),
+            confusion=tuple(tuple(row) for row in self._confusion.tolist()),
+        )

@@ -1,0 +1,234 @@
+"""Scripted manoeuvres: exact kinematics, collisions, leader changes, reproducibility, errors;
+and the protocols' FCW requirements."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acc_fusion.errors import ConfigError, InputError
+from acc_fusion.protocols import REQUIREMENTS, requirement
+from acc_fusion.scenarios import (
+    KMH,
+    MPH,
+    OVERLAP_OFFSET,
+    RANDOM_RANGES,
+    SCENARIOS,
+    STANDARD,
+    CCRbParams,
+    G,
+    LVSParams,
+    ScenarioSource,
+    make_scenario,
+    random_suite,
+)
+
+
+def run(src: ScenarioSource, brake=None):
+    """Step ``src`` to the end; returns the frames (the first included)."""
+    frames = [src.frame()]
+    while not src.done:
+        frames.append(src.advance(None if brake is None else brake(frames[-1])))
+    return frames
+
+
+def test_registry_names():
+    required = {"nhtsa_lvs", "nhtsa_lvd", "nhtsa_lvm", "ccrs", "ccrm", "ccrb"}
+    required |= {"cut_in", "cut_out", "stop_and_go", "following"}
+    assert required == set(STANDARD) and set(SCENARIOS) == required | {"random"}
+
+
+def test_lvd_kinematics_are_exact():
+    src = make_scenario("nhtsa_lvd", 1)  # both at 45 mph, 30 m; POV brakes at 0.3 g from t = 3 s
+    v, a = 45 * MPH, 0.3 * G
+    for _ in range(100):  # 5 s: 2 s of braking
+        src.advance()
+    state = src.state()
+    assert state.t == pytest.approx(5.0, abs=1e-12)
+    assert state.lead_speed[0] == pytest.approx(v - 2 * a, abs=1e-9)
+    assert state.lead_position[0] == pytest.approx(30 + 5 * v - 0.5 * a * 4, abs=1e-9)
+    assert state.ego_position[0] == pytest.approx(5 * v, abs=1e-9)
+    assert state.lead_accel[0] == pytest.approx(-a, abs=1e-12)
+    # bumper to bumper: the gap is the lead's rear minus the ego's front
+    assert state.gap[0] == pytest.approx(state.lead_position[0] - state.ego_position[0])
+    assert src.frame().gap[0] == state.gap[0]
+
+
+def test_a_braking_lead_stops_exactly_and_stays_stopped():
+    src = make_scenario("nhtsa_lvd", 1, headway=200.0, duration=15.0)  # the ego never gets there
+    v, a = 45 * MPH, 0.3 * G
+    states = []
+    while not src.done:
+        src.advance()
+        states.append(src.state())
+    speeds = np.array([s.lead_speed[0] for s in states])
+    assert speeds.min() == 0.0 and np.all(np.diff(speeds) <= 0)
+    stopped = speeds == 0.0
+    assert stopped.sum() > 50 and np.all(stopped[np.argmax(stopped) :])
+    stop = 200 + 3 * v + v * v / (2 * a)  # braking distance after 3 s at speed
+    assert states[-1].lead_position[0] == pytest.approx(stop, abs=1e-9)
+    assert states[-1].lead_accel[0] == 0.0 and not src.collided[0]
+
+
+def test_lvs_without_braking_collides_at_full_speed():
+    src = make_scenario("nhtsa_lvs", 3)
+    frames = run(src)
+    assert src.collided.all()
+    np.testing.assert_allclose(src.collision_speed, 45 * MPH, atol=1e-9)  # 72.4 km/h
+    np.testing.assert_allclose(src.end_time, 6.0, atol=1e-9)  # initial TTC 6 s
+    assert frames[-1].gap[0] == 0.0 and frames[-1].ego_speed[0] == 0.0
+    assert not src.active.any()
+    # after the end the run is frozen and has no leader, and frames stay valid
+    frozen = src.advance()
+    assert (frozen.leader_id == -1).all() and np.all(frozen.ego_speed == 0)
+
+
+def test_ccrm_collision_speed_is_the_speed_difference():
+    src = make_scenario("ccrm", 2, vut_speed=(50 * KMH, 80 * KMH))
+    run(src)
+    np.testing.assert_allclose(src.collision_speed, [30 * KMH, 60 * KMH], atol=1e-9)
+
+
+def test_early_braking_avoids_the_collision_and_ends_the_run():
+    src = make_scenario("nhtsa_lvs", 1)  # gap 120.7 m at 20.1 m/s
+    frames = run(src, brake=lambda f: np.array([6.0]) if f.t >= 1.0 else None)
+    assert not src.collided[0] and np.isnan(src.collision_speed[0])
+    last = frames[-1]
+    assert last.ego_speed[0] == 0.0 and last.gap[0] > 0  # stopped short: the run is resolved
+    assert src.end_time[0] == pytest.approx(1.0 + 45 * MPH / 6.0, abs=0.05 + 1e-9)
+
+
+def test_tuple_parameters_spread_runs_over_the_grid():
+    src = make_scenario("ccrb", 4)  # default: the protocol's 2x2 matrix
+    np.testing.assert_array_equal(src.run_params["headway"], [12, 12, 40, 40])
+    np.testing.assert_array_equal(src.run_params["gvt_decel"], [2, 6, 2, 6])
+    np.testing.assert_allclose(src.frame().gap, [12, 12, 40, 40])
+    assert make_scenario("ccrb", 1, headway=40.0, gvt_decel=6.0).run_params["headway"][0] == 40
+
+
+def test_cut_in_gives_a_new_leader_id():
+    src = make_scenario("cut_in", 1)  # far lead (id 1) at 80 m, merging car (id 2)
+    frames = run(src)
+    ids = np.array([f.leader_id[0] for f in frames])
+    change = int(np.flatnonzero(np.diff(ids))[0]) + 1
+    assert ids[0] == 1 and ids[change] == 2
+    assert 0 < frames[change].lateral_offset[0] < OVERLAP_OFFSET
+    assert frames[change].gap[0] < frames[change - 1].gap[0]
+    assert src.collided[0]  # a slower car merged 15 m ahead and nobody braked
+
+
+def test_cut_out_threat_disappears_before_a_collision():
+    src = make_scenario("cut_out", 2, revealed_gap=(100.0, float("inf")))
+    frames = run(src)
+    assert frames[0].range_rate[0] < 0  # closing on the lead at first
+    ids = np.array([f.leader_id for f in frames])
+    change = int(np.flatnonzero(np.diff(ids[:, 0]))[0]) + 1
+    assert frames[change - 1].gap[0] > 0  # the lead left before the ego reached it
+    assert ids[change].tolist() == [2, -1]  # the revealed vehicle, or nobody
+    assert frames[change].range_rate[0] == pytest.approx(0.0, abs=1e-12)
+    assert not src.collided.any()
+
+
+def test_cut_out_can_reveal_a_stopped_vehicle():
+    src = make_scenario("cut_out", 1, lead_speed=80 * KMH, revealed_speed=0.0)
+    run(src)
+    assert src.collided[0] and src.collision_speed[0] == pytest.approx(80 * KMH)
+
+
+@pytest.mark.parametrize("name", ["following", "stop_and_go"])
+def test_car_following_never_collides(name):
+    src = make_scenario(name, 50, seed=4, duration=30.0)
+    frames = run(src)
+    assert not src.collided.any()
+    gaps = np.array([f.gap for f in frames])
+    assert np.all(gaps > 1.0) and np.all(np.array([f.ego_speed for f in frames]) >= 0)
+    lead = np.array([f.lead_speed for f in frames])
+    if name == "stop_and_go":
+        assert np.all(lead.min(axis=0) == 0) and np.all(lead.max(axis=0) > 5)
+    else:
+        closing = np.array([-f.range_rate for f in frames])
+        assert np.all(gaps / np.maximum(closing, 1e-9) > 10)  # no threat at all
+
+
+def test_random_suite_is_reproducible_and_covers_every_type():
+    a, b = random_suite(300, seed=11), random_suite(300, seed=11)
+    assert set(a.kind) == set(STANDARD)
+    np.testing.assert_array_equal(a.kind, b.kind)
+    for _ in range(60):
+        fa, fb = a.advance(), b.advance()
+        for name in ("gap", "lead_speed", "ego_speed", "ego_accel", "leader_id"):
+            np.testing.assert_array_equal(getattr(fa, name), getattr(fb, name))
+    assert not np.array_equal(random_suite(300, seed=12).kind, a.kind)
+
+
+def test_closed_loop_actions_do_not_touch_other_runs():
+    a, b = random_suite(40, seed=5), random_suite(40, seed=5)
+    brake = np.zeros(40)
+    brake[0] = 3.0
+    for _ in range(80):
+        fa, fb = a.advance(brake), b.advance()
+    np.testing.assert_array_equal(fa.gap[1:], fb.gap[1:])
+    assert fa.ego_speed[0] < fb.ego_speed[0] or not a.active[0]
+
+
+def test_random_draws_stay_in_their_documented_ranges():
+    src = random_suite(400, seed=2)
+    for kind, ranges in RANDOM_RANGES.items():
+        rows = src.kind == kind
+        for name, (lo, hi, _, _) in ranges.items():
+            values = src.run_params[name][rows]
+            assert np.all((values >= lo) & (values <= hi)), (kind, name)
+        assert f"{kind} " in random_suite.__doc__
+
+
+def test_bad_input_names_the_field_and_the_allowed_values():
+    with pytest.raises(ConfigError, match="scenario must be one of .*'ccrs'.*got 'ccrx'"):
+        make_scenario("ccrx", 2)
+    with pytest.raises(ConfigError, match=r"ccrs.vut_speed must be in \(0, 70\], got -3"):
+        make_scenario("ccrs", 2, vut_speed=-3.0)
+    with pytest.raises(ConfigError, match=r"ccrb.headway must be in \(0, 1000\]"):
+        CCRbParams(headway=(12.0, 0.0))
+    with pytest.raises(ConfigError, match="ccrm.vut_speed must exceed ccrm.gvt_speed"):
+        make_scenario("ccrm", 1, vut_speed=10 * KMH)
+    with pytest.raises(
+        ConfigError, match="unknown key ccrs.'speed' in ccrs; allowed keys: vut_speed"
+    ):
+        make_scenario("ccrs", 1, speed=10.0)
+    with pytest.raises(ConfigError, match="n_runs must be an integer >= 1"):
+        ScenarioSource("ccrs", 0)
+    with pytest.raises(ConfigError, match=r"dt must be in \(0, 1\]"):
+        ScenarioSource("ccrs", 1, dt=0.0)
+    with pytest.raises(ConfigError, match="params of 'ccrs' must be a CCRsParams"):
+        ScenarioSource("ccrs", 1, params=LVSParams())
+    with pytest.raises(ConfigError, match="random.kinds must be one of"):
+        make_scenario("random", 2, kinds=("ccrs", "lvs"))
+    src = make_scenario("ccrs", 2)
+    with pytest.raises(InputError, match="ego_brake must be >= 0"):
+        src.advance(np.array([1.0, -2.0]))
+    with pytest.raises(InputError, match=r"ego_brake must have shape \(2,\)"):
+        src.advance(np.zeros(3))
+    src.advance(np.array([np.nan, 0.0]))  # NaN = no request
+
+
+def test_every_protocol_manoeuvre_has_a_requirement():
+    assert set(REQUIREMENTS) == {"nhtsa_lvs", "nhtsa_lvd", "nhtsa_lvm", "ccrs", "ccrm", "ccrb"}
+    assert [requirement(n).required_ttc for n in ("nhtsa_lvs", "nhtsa_lvd", "nhtsa_lvm")] == [
+        2.1,
+        2.4,
+        2.0,
+    ]
+    assert not any(requirement(n).verified for n in ("ccrs", "ccrm", "ccrb"))
+    with pytest.raises(ConfigError, match="scenario must be one of .*'nhtsa_lvs'.*got 'following'"):
+        requirement("following")
+
+
+def test_pass_rule_is_five_of_seven_and_no_warning_fails():
+    lvs = requirement("nhtsa_lvs")
+    five = np.array([2.5, 2.2, 2.1, 3.0, 2.4, 2.0, np.nan])
+    assert lvs.passes(five)
+    assert not lvs.passes(np.where(np.arange(7) == 0, np.nan, five))  # 4 of 7
+    np.testing.assert_array_equal(lvs.trial_passes([2.1, 2.09, np.nan]), [True, False, False])
+    assert lvs.pass_probability(1.0) == 1.0 and lvs.pass_probability(0.0) == 0.0
+    assert lvs.pass_probability(0.5) == pytest.approx(29 / 128)
+    with pytest.raises(InputError, match="must hold the 7 trials of nhtsa_lvs, got 3"):
+        lvs.passes([3.0, 3.0, 3.0])
