@@ -59,9 +59,8 @@ import numpy as np
 
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.scenarios import TIME_TOL, G
-from acc_fusion.sensors import _interval
 from acc_fusion.truth import TruthFrame
-from acc_fusion.validation import check_array, check_choice, check_range
+from acc_fusion.validation import check_array, check_choice, check_interval, check_range
 
 #: The release rules of :class:`DriverConfig`.
 RELEASE_RULES = ("not_closing", "warning_ended", "stopped")
@@ -99,7 +98,7 @@ class DriverConfig:
             "reaction_time_log_sd": check_range(
                 "driver.reaction_time_log_sd", self.reaction_time_log_sd, 0.0, 3.0
             ),
-            "reaction_time_range": _interval(
+            "reaction_time_range": check_interval(
                 "driver.reaction_time_range", self.reaction_time_range, lo_open=True
             ),
             "deceleration_mean": check_range(
@@ -108,7 +107,7 @@ class DriverConfig:
             "deceleration_sd": check_range(
                 "driver.deceleration_sd", self.deceleration_sd, 0.0, 15.0
             ),
-            "deceleration_range": _interval(
+            "deceleration_range": check_interval(
                 "driver.deceleration_range", self.deceleration_range, lo_open=True
             ),
             "release": check_choice("driver.release", self.release, RELEASE_RULES),

@@ -54,6 +54,7 @@ class FDIConfig:
     alpha: float = 0.001
     gate_prob: float = 0.9999
     clip_prob: float = 0.99
+    confirm_tracks: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.window, int) or not 1 <= self.window <= 10_000:

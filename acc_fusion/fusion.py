@@ -225,6 +225,10 @@ class Estimator(ABC):
     def _isolated(self) -> np.ndarray:
         return np.zeros((self.n_pairs, self.n_sensors), dtype=bool)
 
+    def _reported(self) -> np.ndarray:
+        """The pairs whose estimate is reported as valid (a copy)."""
+        return self.initialised.copy()
+
     def step(self, measurements: Sequence[Measurement], target_id: np.ndarray) -> Estimate:
         """Advance every pair by one step with this step's measurements (one per sensor)."""
         z, r, valid, target_id = self._check(measurements, target_id)
@@ -237,6 +241,8 @@ class Estimator(ABC):
             self.initialised &= ~lost
             self._drop(lost)
         self._nis[:] = np.nan
+        self._t = t
+        self._online = np.array([bool(getattr(m, "online", True)) for m in measurements])
         used = self._advance(z, r, valid)
         self._last[used] = t
         x, p = self._state()
@@ -244,7 +250,7 @@ class Estimator(ABC):
             t=t,
             x=np.array(x),
             p=np.array(p),
-            valid=self.initialised.copy(),
+            valid=self._reported(),
             nis=self._nis.copy(),
             isolated=self._isolated(),
         )
@@ -383,8 +389,13 @@ class CentralizedFilter(_OneFilter):
 class FederatedFilter(Estimator):
     """Carlson's federated Kalman filter (see the module docstring); ``plain`` = no sharing."""
 
-    def __init__(self, sensors, n_pairs, config, plain: bool = False) -> None:
+    def __init__(self, sensors, n_pairs, config, plain: bool = False, specs=None) -> None:
         self.plain = plain
+        self._coverage = (
+            None
+            if specs is None
+            else np.array([[sp.min_range for sp in specs], [sp.max_range for sp in specs]])
+        )
         reset = "none" if plain else config.reset
         self._feedback = reset in ("fusion", "zero")
         self._increments = reset == "zero"
@@ -408,12 +419,45 @@ class FederatedFilter(Estimator):
         self.beta = np.repeat(self._beta0()[:, None], n, axis=1)
         fdi = None if self.plain else self.config.fdi
         self.fdi = None if fdi is None else WindowedChiSquare(n, s, fdi)
+        self._confirm = fdi is not None and fdi.confirm_tracks and self._coverage is not None
+        self._seen = np.zeros((s, n), dtype=bool)
+        self._needed = np.zeros((s, n), dtype=bool)
+        self._online_at = np.full(s, -np.inf)
+        self._reported_at = np.full((s, n), -np.inf)
         self._k = 0
 
     def _drop(self, pairs):
         self.beta[:, pairs] = self._beta0()[:, None]
+        self._seen[:, pairs] = False
+        self._needed[:, pairs] = False
         if self.fdi is not None:
             self.fdi.reset(pairs)
+
+    def _reported(self) -> np.ndarray:
+        r"""Tracks confirmed by every sensor that should see them.
+
+        With fault detection on and the sensors' specs known, a new track is reported only
+        once each sensor that should have seen it has contributed a measurement to it.  A
+        sensor should see a track once it is online (it delivered a frame within
+        ``max_coast``), not isolated, and the estimated gap has been inside its range
+        interval at some step of the track.  A radar ghost (a stationary roadside object, the
+        classic cause of FCW false alarms) that the infrared camera should see but does not
+        is never reported, not even when its coasting estimate leaves the camera's range; a
+        target beyond the camera's range needs the radar alone.
+        """
+        if not self._confirm:
+            return self.initialised.copy()
+        gap = self.master.x[0][:, 0]
+        lo, hi = self._coverage
+        online = self._t - self._online_at <= self.config.filter.max_coast + 1e-9
+        self._needed |= (
+            online[:, None]
+            & (gap[None] >= lo[:, None])
+            & (gap[None] <= hi[:, None])
+            & ~self._isolation()
+            & self.initialised[None]
+        )
+        return self.initialised & (self._seen | ~self._needed).all(axis=0)
 
     def _state(self):
         return self.master.x[0], self.master.p[0]
@@ -493,9 +537,14 @@ class FederatedFilter(Estimator):
             xm, pm = self.master.x[0], self.master.p[0]
             for s in s_all:
                 self.locals.assign(s, rejoined[s] & ini, xm, pm * infl[s][:, None, None])
+        self._online_at[self._online] = self._t
+        self._seen |= accepted | consumed
+        self._reported_at[reporting | consumed] = self._t
         self._k += 1
-        # A pair whose every sensor is isolated has lost its track: start again.
-        lost = ini & self._isolation().all(axis=0)
+        # A track whose every recently reporting sensor is isolated is lost: start again.
+        isolated = self._isolation()
+        silent = self._t - self._reported_at > self.config.filter.max_coast + 1e-9
+        lost = ini & isolated.any(axis=0) & (isolated | silent).all(axis=0)
         if lost.any():
             self.initialised &= ~lost
             self._drop(lost)
@@ -578,7 +627,8 @@ def make_estimator(
     """Build the estimator named by ``config.method`` (or by a method name with defaults).
 
     ``specs`` (the sensors' :class:`~acc_fusion.sensors.SensorSpec`, in the order of
-    ``sensors``) is needed only by the constant-gain filter (``local="steady"``).
+    ``sensors``) is needed by the constant-gain filter (``local="steady"``) and enables the
+    federated filter's track confirmation (each sensor's range interval).
 
     >>> est = make_estimator("federated", ("radar", "infrared"), n_pairs=4)
     >>> type(est).__name__
@@ -601,4 +651,4 @@ def make_estimator(
         return SingleSensorFilter(sensors, n_pairs, config, sensor=method)
     if method.startswith("centralized"):
         return CentralizedFilter(sensors, n_pairs, config, stacked=method.endswith("stacked"))
-    return FederatedFilter(sensors, n_pairs, config, plain=method == "plain")
+    return FederatedFilter(sensors, n_pairs, config, plain=method == "plain", specs=specs)

@@ -218,10 +218,12 @@ class StoppingDistanceParams:
             *Transportation Human Factors* 2(3):195, 2000).
         decel_caution: ego deceleration of the caution level [m/s²] (default 4.9 ≈ 0.5 g,
             firm braking).
-        reaction_imminent: reaction time of the imminent level [s] (default 0.75: a driver
-            who expects the signal, Green 2000).
-        decel_imminent: ego deceleration of the imminent level [m/s²] (default 7.8 ≈ 0.8 g,
-            the full braking of Fujita et al. 1995, see :class:`HondaParams`).
+        reaction_imminent: reaction time of the imminent level [s] (default 1.0: between
+            Green's 0.75 s for an expected signal and 1.25 s for an unexpected one; an FCW
+            alert is a signal the driver knows but does not expect).
+        decel_imminent: ego deceleration of the imminent level [m/s²] (default 6.0 ≈ 0.6 g,
+            hard braking of an alerted driver; below the 0.8 g full braking of Fujita et al.
+            1995, which few drivers reach).
         lead_decel: deceleration of the lead's emergency stop [m/s²] (default 7.8 ≈ 0.8 g,
             the same).
         d0: standstill distance [m] (default 2.5: SUMO's default ``minGap``).
@@ -229,8 +231,8 @@ class StoppingDistanceParams:
 
     reaction_caution: float = 1.5
     decel_caution: float = 4.9
-    reaction_imminent: float = 0.75
-    decel_imminent: float = 7.8
+    reaction_imminent: float = 1.0
+    decel_imminent: float = 6.0
     lead_decel: float = 7.8
     d0: float = 2.5
 

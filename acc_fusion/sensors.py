@@ -67,7 +67,7 @@ from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.faults import Fault, Report, apply_faults
 from acc_fusion.models import MEAS_DIM
 from acc_fusion.truth import TruthFrame
-from acc_fusion.validation import check_range
+from acc_fusion.validation import check_interval, check_range
 
 #: Tolerance [s] when comparing a frame time with a sample time.
 TIME_TOL = 1e-9
@@ -86,15 +86,6 @@ _SPEC_BOUNDS: dict[str, dict[str, float | bool]] = {
     "phase": {"lo": 0.0, **_FINITE},
     "ghost_rate": {"lo": 0.0, **_FINITE},
 }
-
-
-def _interval(name: str, value: object, *, lo_open: bool) -> tuple[float, float]:
-    """Validate a ``(low, high)`` pair with ``0 <= low <= high < inf`` (``0 < low`` if open)."""
-    if not isinstance(value, (tuple, list)) or len(value) != 2:
-        raise ConfigError(f"{name} must be a pair (low, high) of numbers, got {value!r}")
-    low = check_range(f"{name}[0]", value[0], 0.0, lo_open=lo_open, **_FINITE)
-    high = check_range(f"{name}[1]", value[1], low, **_FINITE)
-    return low, high
 
 
 @dataclass(frozen=True)
@@ -139,8 +130,8 @@ class SensorSpec:
         values["max_range"] = check_range(
             p + "max_range", self.max_range, values["min_range"], **_ABOVE
         )
-        values["ghost_range"] = _interval(p + "ghost_range", self.ghost_range, lo_open=False)
-        values["ghost_duration"] = _interval(
+        values["ghost_range"] = check_interval(p + "ghost_range", self.ghost_range, lo_open=False)
+        values["ghost_duration"] = check_interval(
             p + "ghost_duration", self.ghost_duration, lo_open=True
         )
         for name, value in values.items():
@@ -279,6 +270,9 @@ class Measurement:
         valid: ``(N,)`` bool: the sensor reported a return for the pair at this frame.
         ghost: ``(N,)`` bool: the return is a clutter ghost (diagnostics and metrics only;
             filters must not read it).
+        online: the sensor delivered a frame at this time (it sampled and is not in a
+            dropout), whether or not it detected anything: the health signal a real sensor
+            gives its ECU.  ``False`` between sample times.
 
     ``z`` and ``r`` are laid out in memory with the pair axis last (``z.T`` and
     ``r.transpose(1, 2, 0)`` are contiguous), the layout of :mod:`acc_fusion.kalman`.
@@ -290,6 +284,7 @@ class Measurement:
     r: np.ndarray
     valid: np.ndarray
     ghost: np.ndarray
+    online: bool = True
 
     @property
     def n_pairs(self) -> int:
@@ -409,7 +404,10 @@ class Sensor:
         r = np.zeros((MEAS_DIM, MEAS_DIM, n))
         r[0, 0] = np.where(valid, spec.range_noise_std(z[:, 0]) ** 2, 1.0)
         r[1, 1] = np.where(valid, spec.range_rate_std**2, 1.0)
-        return Measurement(frame.t, spec.name, z, r.transpose(2, 0, 1), valid, out.ghost & valid)
+        online = not any(f.kind == "dropout" and f.active(frame.t) for f in self.faults)
+        return Measurement(
+            frame.t, spec.name, z, r.transpose(2, 0, 1), valid, out.ghost & valid, online
+        )
 
     def _start_frame(self, frame: TruthFrame) -> tuple[int, float]:
         """Check N and time order against the previous frames; return N and the time step."""
@@ -478,6 +476,7 @@ def _empty(t: float, name: str, n: int) -> Measurement:
         r=np.tile(np.eye(MEAS_DIM)[:, :, None], n).transpose(2, 0, 1),
         valid=np.zeros(n, dtype=bool),
         ghost=np.zeros(n, dtype=bool),
+        online=False,
     )
 
 

@@ -74,3 +74,12 @@ def check_array(
     if nonnegative and np.any(used < 0):
         raise InputError(f"{name} must be >= 0, got a minimum of {float(np.min(used)):g}")
     return arr
+
+
+def check_interval(name: str, value: object, *, lo_open: bool) -> tuple[float, float]:
+    """Validate a ``(low, high)`` pair with ``0 <= low <= high < inf`` (``0 < low`` if open)."""
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise ConfigError(f"{name} must be a pair (low, high) of numbers, got {value!r}")
+    low = check_range(f"{name}[0]", value[0], 0.0, math.inf, lo_open=lo_open, hi_open=True)
+    high = check_range(f"{name}[1]", value[1], low, math.inf, hi_open=True)
+    return low, high

@@ -46,9 +46,9 @@ def test_ttc_by_hand():
 def test_stopping_distance_by_hand():
     # caution:  20*1.5  + 20²/(2*4.9) - 15²/(2*7.8) + 2.5
     #         = 30      + 40.816327   - 14.423077   + 2.5 = 58.893250
-    # imminent: 20*0.75 + 20²/(2*7.8) - 14.423077   + 2.5
-    #         = 15      + 25.641026   - 14.423077   + 2.5 = 28.717949
-    assert distances("stopping_distance") == pytest.approx((58.893250, 28.717949), abs=1e-6)
+    # imminent: 20*1.0  + 20²/(2*6.0) - 14.423077   + 2.5
+    #         = 20      + 33.333333   - 14.423077   + 2.5 = 41.410256
+    assert distances("stopping_distance") == pytest.approx((58.893250, 41.410256), abs=1e-6)
     # a fast lead: 5*1.5 + 25/9.8 - 30²/15.6 < 0 -> clipped at d0 = 2.5 for both levels
     assert distances("stopping_distance", v=5.0, rel=25.0) == (2.5, 2.5)
 
