@@ -224,8 +224,10 @@ class StoppingDistanceParams:
         decel_imminent: ego deceleration of the imminent level [m/s²] (default 6.0 ≈ 0.6 g,
             hard braking of an alerted driver; below the 0.8 g full braking of Fujita et al.
             1995, which few drivers reach).
-        lead_decel: deceleration of the lead's emergency stop [m/s²] (default 7.8 ≈ 0.8 g,
-            the same).
+        lead_decel: deceleration of the lead's emergency stop [m/s²] (default 6.0: as hard
+            as the ego's imminent braking, the equal-braking assumption of kinematic FCW
+            models such as Berkeley's; then steady following at a constant gap raises no
+            imminent alert above a headway of ``reaction_imminent`` + d0/v).
         d0: standstill distance [m] (default 2.5: SUMO's default ``minGap``).
     """
 
@@ -233,7 +235,7 @@ class StoppingDistanceParams:
     decel_caution: float = 4.9
     reaction_imminent: float = 1.0
     decel_imminent: float = 6.0
-    lead_decel: float = 7.8
+    lead_decel: float = 6.0
     d0: float = 2.5
 
     def __post_init__(self) -> None:

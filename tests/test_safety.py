@@ -44,12 +44,12 @@ def test_ttc_by_hand():
 
 
 def test_stopping_distance_by_hand():
-    # caution:  20*1.5  + 20²/(2*4.9) - 15²/(2*7.8) + 2.5
-    #         = 30      + 40.816327   - 14.423077   + 2.5 = 58.893250
-    # imminent: 20*1.0  + 20²/(2*6.0) - 14.423077   + 2.5
-    #         = 20      + 33.333333   - 14.423077   + 2.5 = 41.410256
-    assert distances("stopping_distance") == pytest.approx((58.893250, 41.410256), abs=1e-6)
-    # a fast lead: 5*1.5 + 25/9.8 - 30²/15.6 < 0 -> clipped at d0 = 2.5 for both levels
+    # caution:  20*1.5  + 20²/(2*4.9) - 15²/(2*6.0) + 2.5
+    #         = 30      + 40.816327   - 18.75       + 2.5 = 54.566327
+    # imminent: 20*1.0  + 20²/(2*6.0) - 18.75       + 2.5
+    #         = 20      + 33.333333   - 18.75       + 2.5 = 37.083333
+    assert distances("stopping_distance") == pytest.approx((54.566327, 37.083333), abs=1e-6)
+    # a fast lead: 5*1.5 + 25/9.8 - 30²/12 < 0 -> clipped at d0 = 2.5 for both levels
     assert distances("stopping_distance", v=5.0, rel=25.0) == (2.5, 2.5)
 
 
