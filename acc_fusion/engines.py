@@ -42,8 +42,17 @@ class FilterBank(ABC):
         """Covariances, shape ``(K, N, dim, dim)`` (read-only view or copy)."""
 
     @abstractmethod
-    def predict(self, f: np.ndarray, q: np.ndarray, q_scale: np.ndarray, mask: np.ndarray):
-        """Time update where ``mask (K, N)``, with process noise ``q_scale (K, N) * q``."""
+    def predict(
+        self,
+        f: np.ndarray,
+        q: np.ndarray,
+        q_scale: np.ndarray,
+        mask: np.ndarray,
+        b: np.ndarray | None = None,
+        u: np.ndarray | None = None,
+    ):
+        """Time update where ``mask (K, N)``, with process noise ``q_scale (K, N) * q`` and,
+        when given, the known input ``u (N,)`` through ``b (dim,)``: ``x = F x + b u``."""
 
     @abstractmethod
     def update(
@@ -76,16 +85,19 @@ class BatchedBank(FilterBank):
     def p(self) -> np.ndarray:
         return self._p
 
-    def predict(self, f, q, q_scale, mask):
+    def predict(self, f, q, q_scale, mask, b=None, u=None):
         k, n, d = self._x.shape
+        mask = np.ascontiguousarray(np.broadcast_to(mask, (k, n)))
         kalman.predict(
             self._x.reshape(k * n, d),
             self._p.reshape(k * n, d, d),
             np.ascontiguousarray(f, dtype=float),
             np.ascontiguousarray(q, dtype=float),
             np.ascontiguousarray(np.broadcast_to(q_scale, (k, n)), dtype=float).reshape(-1),
-            np.ascontiguousarray(np.broadcast_to(mask, (k, n))).reshape(-1),
+            mask.reshape(-1),
         )
+        if u is not None:
+            self._x += np.where(mask[..., None], b * u[None, :, None], 0.0)
 
     def update(self, j, z, r, h, rows):
         nis = np.empty(self.n_pairs)
@@ -130,11 +142,14 @@ class FilterpyBank(FilterBank):
     def p(self) -> np.ndarray:
         return np.array([[kf.P for kf in row] for row in self._kf], dtype=float)
 
-    def predict(self, f, q, q_scale, mask):
+    def predict(self, f, q, q_scale, mask, b=None, u=None):
         q_scale = np.broadcast_to(q_scale, (self.n_filters, self.n_pairs))
         for j, row in enumerate(self._kf):
             for k in np.flatnonzero(np.broadcast_to(mask, q_scale.shape)[j]):
-                row[k].predict(F=f, Q=q_scale[j, k] * q)
+                if u is None:
+                    row[k].predict(F=f, Q=q_scale[j, k] * q)
+                else:
+                    row[k].predict(u=u[k], B=b, F=f, Q=q_scale[j, k] * q)
 
     def update(self, j, z, r, h, rows):
         nis = np.full(self.n_pairs, np.nan)

@@ -220,7 +220,8 @@ def simulate(
     )
     read_ego = _ego_sensors(n, np.random.default_rng(ss[2]))
     ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt))
-    fusion = replace(cfg.fusion, filter=replace(cfg.fusion.filter, dt=dt))
+    # The accelerometer (offset removed by the ego filter) is the motion model's known input.
+    fusion = replace(cfg.fusion, filter=replace(cfg.fusion.filter, dt=dt, ego_accel_std=ACCEL_STD))
     estimators = {
         m: make_estimator(replace(fusion, method=m), SENSOR_NAMES, n, specs) for m in cfg.methods
     }
@@ -229,6 +230,7 @@ def simulate(
     metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
     driver = Driver(n, cfg.driver, seed=np.random.default_rng(ss[3])) if cfg.drive else None
     silent = np.zeros(n, dtype=np.int8)
+    ego_accel = np.zeros(n)  # measured over the previous step: the input of this prediction
 
     steps = 0
     for _ in tqdm(
@@ -251,9 +253,9 @@ def simulate(
         ttc = time_to_collision(np.where(has, frame.gap, 1.0), np.where(has, frame.range_rate, 0.0))
         ests, levels = {}, {}
         for m, est_m in estimators.items():
-            est = ests[m] = est_m.step(meas, frame.leader_id)
+            est = ests[m] = est_m.step(meas, frame.leader_id, ego_accel)
             ok = est.valid & active
-            a_lead = np.where(ok, est.x[:, 2], 0.0) + (accel - bias)
+            a_lead = np.where(ok, est.x[:, 2], 0.0)
             levels[m] = logic[m].step(
                 np.where(ok, est.gap, 0.0),
                 v_ego,
@@ -271,6 +273,7 @@ def simulate(
         if driver is not None:
             brake = driver.step(levels[cfg.drive] if warnings_on else silent, frame)
         source.advance(brake)
+        ego_accel = accel - bias
         steps += 1
         if source.done:
             break

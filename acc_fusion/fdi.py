@@ -9,9 +9,10 @@ local filter's own innovation with its information share undone).  Two tests use
 
 * **Gate** (per report): a measurement with :math:`\epsilon_\nu > \chi^2_{m}(p_g)` is not used
   in the update (an outlier: a spike, a ghost, the first report of a bias).  When two or
-  more non-isolated sensors of a pair report at the same step and *every one* fails the
-  gate, the cause is common to all of them (a manoeuvre the motion model did not expect), so
-  the measurements are used and not counted as evidence of a fault.
+  more non-isolated sensors of a pair have reported within the last ``common_steps`` steps
+  and the latest report of *every one* failed the gate, the cause is common to all of them
+  (a manoeuvre the motion model did not expect, such as the ego's own hard braking), so the
+  measurements are used and not counted as evidence of a fault.
 * **Window** (per sensor): the sum of the last W NIS values, each clipped at
   :math:`\chi^2_m(p_c)`, is compared with :math:`\chi^2_{mW}(1-\alpha)`.  A failing sensor is
   *isolated*: left out of the fusion.  Its window is then refilled with its NIS against the
@@ -55,6 +56,7 @@ class FDIConfig:
     gate_prob: float = 0.9999
     clip_prob: float = 0.99
     confirm_tracks: bool = True
+    common_steps: int = 3
 
     def __post_init__(self) -> None:
         if not isinstance(self.window, int) or not 1 <= self.window <= 10_000:
@@ -64,6 +66,10 @@ class FDIConfig:
         check_range("fdi.alpha", self.alpha, 0.0, 1.0, lo_open=True, hi_open=True)
         check_range("fdi.gate_prob", self.gate_prob, 0.0, 1.0, lo_open=True, hi_open=True)
         check_range("fdi.clip_prob", self.clip_prob, 0.0, 1.0, lo_open=True, hi_open=True)
+        if not isinstance(self.common_steps, int) or not 0 <= self.common_steps <= 1000:
+            raise ConfigError(
+                f"fdi.common_steps must be a whole number in [0, 1000], got {self.common_steps!r}"
+            )
 
 
 class WindowedChiSquare:
@@ -80,11 +86,14 @@ class WindowedChiSquare:
         self._count = np.zeros((n_pairs, n_sensors), dtype=np.int64)
         self._pos = np.zeros((n_pairs, n_sensors), dtype=np.int64)
         self.isolated = np.zeros((n_pairs, n_sensors), dtype=bool)
+        self._verdict = np.zeros((n_pairs, n_sensors), dtype=np.int8)
+        self._age = np.zeros((n_pairs, n_sensors), dtype=np.int64)
 
     def reset(self, pairs: np.ndarray) -> None:
         """Forget windows and isolation of the pairs in the boolean mask ``pairs``."""
         self._clear(pairs)
         self.isolated[pairs] = False
+        self._verdict[pairs] = 0
 
     def _clear(self, mask: np.ndarray) -> None:
         self._buf[mask] = 0.0
@@ -101,8 +110,12 @@ class WindowedChiSquare:
         """
         passed = reported & (nis <= self.gate)
         healthy = reported & ~self.isolated
-        # Common cause: two or more healthy sensors report and every one fails the gate.
-        common = (healthy.sum(axis=1) >= 2) & ~(passed & healthy).any(axis=1)
+        # Each sensor's latest gate verdict (1 pass, 2 fail) and its age in steps.
+        self._verdict = np.where(reported, np.where(passed, 1, 2), self._verdict)
+        self._age = np.where(reported, 0, self._age + 1)
+        recent = ~self.isolated & (self._verdict > 0) & (self._age <= self.config.common_steps)
+        # Common cause: two or more healthy sensors have a recent verdict and all failed.
+        common = (recent.sum(axis=1) >= 2) & ~(recent & (self._verdict == 1)).any(axis=1)
         accepted = healthy & (passed | common[:, None])
         record = reported & ~common[:, None]
 

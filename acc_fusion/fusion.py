@@ -58,8 +58,14 @@ import numpy as np
 from acc_fusion.engines import ENGINES, Engine
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.fdi import FDIConfig, WindowedChiSquare
-from acc_fusion.models import MEASUREMENT_MATRIX, STATE_DIM, ca_process_noise, ca_transition
-from acc_fusion.validation import check_choice, check_range
+from acc_fusion.models import (
+    MEASUREMENT_MATRIX,
+    STATE_DIM,
+    ca_process_noise,
+    ca_transition,
+    ego_input,
+)
+from acc_fusion.validation import check_array, check_choice, check_range
 
 if TYPE_CHECKING:
     from acc_fusion.sensors import Measurement, SensorSpec
@@ -83,18 +89,23 @@ class FilterConfig:
             [m/s²] (default 3.0: ±1 g covers emergency braking at 3 σ).
         max_coast: seconds without a usable measurement after which a track is dropped
             (default 1.0).
+        ego_accel_std: noise of the ego-acceleration input [m/s²] (the accelerometer's),
+            added to the process noise as :math:`\\Gamma\\Gamma^\top\\sigma_u^2`
+            (default 0: no input, or a perfect one).
     """
 
     dt: float = 0.05
     jerk_std: float = 2.0
     init_accel_std: float = 3.0
     max_coast: float = 1.0
+    ego_accel_std: float = 0.0
 
     def __post_init__(self) -> None:
         check_range("filter.dt", self.dt, 0.0, 10.0, lo_open=True)
         check_range("filter.jerk_std", self.jerk_std, 0.0, 1e3)
         check_range("filter.init_accel_std", self.init_accel_std, 0.0, 1e3, lo_open=True)
         check_range("filter.max_coast", self.max_coast, 0.0, 1e6, lo_open=True)
+        check_range("filter.ego_accel_std", self.ego_accel_std, 0.0, 100.0)
 
 
 @dataclass(frozen=True)
@@ -191,8 +202,12 @@ class Estimator(ABC):
         self.engine = Engine(config.engine)
         fc = config.filter
         self.f = ca_transition(fc.dt)
-        self.q = ca_process_noise(fc.dt, fc.jerk_std)
+        self.b = ego_input(fc.dt)
+        self.q = (
+            ca_process_noise(fc.dt, fc.jerk_std) + np.outer(self.b, self.b) * fc.ego_accel_std**2
+        )
         self.h = MEASUREMENT_MATRIX
+        self._u = None
         self.reset()
 
     @property
@@ -229,9 +244,21 @@ class Estimator(ABC):
         """The pairs whose estimate is reported as valid (a copy)."""
         return self.initialised.copy()
 
-    def step(self, measurements: Sequence[Measurement], target_id: np.ndarray) -> Estimate:
-        """Advance every pair by one step with this step's measurements (one per sensor)."""
+    def step(
+        self,
+        measurements: Sequence[Measurement],
+        target_id: np.ndarray,
+        ego_accel: np.ndarray | None = None,
+    ) -> Estimate:
+        """Advance every pair by one step with this step's measurements (one per sensor).
+
+        ``ego_accel (N,)`` is the ego's measured acceleration over the coming step [m/s²]:
+        the known input of the motion model (:func:`acc_fusion.models.ego_input`).
+        """
         z, r, valid, target_id = self._check(measurements, target_id)
+        if ego_accel is not None:
+            ego_accel = check_array("ego_accel", ego_accel, (self.n_pairs,))
+        self._u = ego_accel
         t = float(measurements[0].t)
         lost = self.initialised & (
             (target_id != self._target) | (t - self._last > self.config.filter.max_coast + 1e-9)
@@ -337,7 +364,7 @@ class SingleSensorFilter(_OneFilter):
 
     def _advance(self, z, r, valid):
         j = self.index
-        self.bank.predict(self.f, self.q, 1.0, self.initialised[None])
+        self.bank.predict(self.f, self.q, 1.0, self.initialised[None], self.b, self._u)
         only = np.zeros_like(valid)
         only[j] = valid[j]
         init, x0, p0, _ = self._initial(z, r, only)
@@ -357,7 +384,7 @@ class CentralizedFilter(_OneFilter):
         super().__init__(sensors, n_pairs, config)
 
     def _advance(self, z, r, valid):
-        self.bank.predict(self.f, self.q, 1.0, self.initialised[None])
+        self.bank.predict(self.f, self.q, 1.0, self.initialised[None], self.b, self._u)
         init, x0, p0, consumed = self._initial(z, r, valid)
         if x0 is not None:
             self.bank.assign(0, init, x0, p0)
@@ -490,8 +517,8 @@ class FederatedFilter(Estimator):
     def _advance(self, z, r, valid):
         s_all = range(self.n_sensors)
         ini = self.initialised
-        self.master.predict(self.f, self.q, 1.0, ini[None])
-        self.locals.predict(self.f, self.q, self._inflation(), ini[None])
+        self.master.predict(self.f, self.q, 1.0, ini[None], self.b, self._u)
+        self.locals.predict(self.f, self.q, self._inflation(), ini[None], self.b, self._u)
 
         init, x0, p0, consumed = self._initial(z, r, valid)
         if x0 is not None:
@@ -595,6 +622,8 @@ class SteadyStateFilter(Estimator):
     def _advance(self, z, r, valid):
         j = self.index
         self.x = self.x @ self.f.T  # every pair: cheaper than selecting the tracked ones
+        if self._u is not None:
+            self.x += self._u[:, None] * self.b
         self.since += 1
         only = np.zeros_like(valid)
         only[j] = valid[j]

@@ -7,8 +7,13 @@ index  meaning                      unit
 =====  ===========================  ======
 0      gap (bumper to bumper)       m
 1      range-rate  :math:`\dot d`   m/s (negative when closing)
-2      relative acceleration        m/s²
+2      lead vehicle's acceleration  m/s²
 =====  ===========================  ======
+
+The ego's own acceleration :math:`u` (from its accelerometer) is a known input, so the
+ego's braking is not a surprise to the filter (ego-motion compensation):
+:math:`\ddot d = a_\text{lead} - u`.  Without that input (``u = 0``) the third state is
+the relative acceleration, as in kong2011.
 
 The local model of kong2011 (eq. 1), :math:`X(k+1) = \Phi X(k) + G V(k)`, with the state
 "distance, speed and acceleration of the target" is the constant-acceleration (discrete
@@ -35,7 +40,7 @@ from acc_fusion.validation import check_range
 
 STATE_DIM = 3
 MEAS_DIM = 2
-STATE_LABELS = ("gap [m]", "range-rate [m/s]", "relative acceleration [m/s²]")
+STATE_LABELS = ("gap [m]", "range-rate [m/s]", "lead acceleration [m/s²]")
 #: Measurement matrix of both sensors: range and range-rate.
 MEASUREMENT_MATRIX = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
@@ -44,6 +49,13 @@ def ca_transition(dt: float) -> np.ndarray:
     r"""Constant-acceleration transition matrix :math:`\Phi(T)` for a step of ``dt`` seconds."""
     dt = check_range("dt", dt, 0.0, lo_open=True)
     return np.array([[1.0, dt, 0.5 * dt * dt], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+
+
+def ego_input(dt: float) -> np.ndarray:
+    r"""Input vector :math:`\Gamma = [-T^2/2,\ -T,\ 0]^\top` of the ego acceleration ``u``:
+    :math:`X(k+1) = \Phi X(k) + \Gamma u(k) + w(k)`."""
+    dt = check_range("dt", dt, 0.0, lo_open=True)
+    return np.array([-0.5 * dt * dt, -dt, 0.0])
 
 
 def ca_process_noise(dt: float, jerk_std: float) -> np.ndarray:

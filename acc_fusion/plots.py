@@ -30,3 +30,158 @@ def estimation_bars(table):
     fig.suptitle(table.title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+_COLORS = {
+    "radar": "tab:blue",
+    "infrared": "tab:orange",
+    "centralized": "tab:purple",
+    "federated": "tab:green",
+    "plain": "tab:gray",
+}
+
+
+def _column(rows, key):
+    return np.array([r.get(key, np.nan) for r in rows], dtype=float)
+
+
+def run_figure(trace, config):
+    """One run: gap (truth, sensors, local and fused estimates, safety distance), range-rate,
+    and the warning levels of the driving method and of the oracle."""
+    rows = trace.rows
+    t = _column(rows, "t")
+    fig, (ax_g, ax_r, ax_w) = plt.subplots(
+        3, 1, sharex=True, figsize=(10, 9), gridspec_kw={"height_ratios": [3, 2, 1.3]}
+    )
+    ax_g.plot(t, _column(rows, "gap"), "k-", lw=2, label="true gap")
+    for sensor in ("radar", "infrared"):
+        ax_g.plot(
+            t,
+            _column(rows, f"{sensor}_range"),
+            ".",
+            ms=3,
+            color=_COLORS[sensor],
+            alpha=0.6,
+            label=f"{sensor} measurement",
+        )
+        ax_r.plot(
+            t,
+            _column(rows, f"{sensor}_range_rate"),
+            ".",
+            ms=3,
+            color=_COLORS[sensor],
+            alpha=0.6,
+            label=f"{sensor} measurement",
+        )
+    for method in config.methods:
+        gap, std = _column(rows, f"{method}_gap"), _column(rows, f"{method}_gap_std")
+        color = _COLORS.get(method, "tab:red")
+        fused = method not in ("radar", "infrared")
+        ax_g.plot(
+            t,
+            gap,
+            "-" if fused else "--",
+            color=color,
+            lw=1.8 if fused else 1.0,
+            label=f"{method} estimate",
+        )
+        if fused:
+            ax_g.fill_between(
+                t, gap - 2 * std, gap + 2 * std, color=color, alpha=0.25, label=f"{method} ±2σ"
+            )
+    ax_g.plot(
+        t,
+        _column(rows, "d_caution"),
+        ":",
+        color="goldenrod",
+        lw=1.5,
+        label="safety distance, caution",
+    )
+    ax_g.plot(
+        t,
+        _column(rows, "d_imminent"),
+        ":",
+        color="crimson",
+        lw=1.5,
+        label="safety distance, imminent",
+    )
+    ax_g.set_ylabel("gap [m]")
+    top = np.nanmax(np.concatenate([_column(rows, "gap"), _column(rows, "d_caution")]))
+    ax_g.set_ylim(bottom=0, top=1.15 * top if np.isfinite(top) else None)
+    ax_g.legend(fontsize=7, ncol=3, loc="upper right")
+    ax_r.plot(t, _column(rows, "range_rate"), "k-", lw=2, label="true range-rate")
+    ax_r.set_ylabel("range-rate [m/s]")
+    ax_r.legend(fontsize=7, loc="lower left")
+    drive = config.drive or config.methods[-1]
+    level = _column(rows, f"{drive}_level")
+    for value, color, name in ((1, "goldenrod", "caution"), (2, "crimson", "imminent")):
+        ax_w.fill_between(
+            t,
+            0,
+            1,
+            where=level >= value,
+            step="post",
+            color=color,
+            alpha=0.5,
+            transform=ax_w.get_xaxis_transform(),
+            label=f"{drive}: {name}",
+        )
+    ax_w.step(
+        t,
+        _column(rows, "oracle_level"),
+        where="post",
+        color="k",
+        lw=1.2,
+        label="oracle level (truth)",
+    )
+    ax_w.set_yticks([0, 1, 2], ["none", "caution", "imminent"])
+    ax_w.set_ylabel("warning")
+    ax_w.set_xlabel("time [s]")
+    speed = ax_w.twinx()
+    speed.plot(t, _column(rows, "ego_speed"), color="tab:cyan", lw=1, label="ego speed")
+    speed.set_ylabel("ego speed [m/s]", color="tab:cyan")
+    ax_w.legend(fontsize=7, loc="upper left", ncol=3)
+    fig.suptitle(
+        f"{config.scenario}, seed {config.seed}, run {trace.run}: "
+        f"{drive} alerts drive the closed loop",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    return fig
+
+
+def compare_figure(comparison):
+    """False alarms per hour and miss rate of every method, with their 95 % intervals."""
+    summaries = comparison.result.summaries
+    names = list(summaries)
+    x = np.arange(len(names))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, attr, label in (
+        (axes[0], "false_alarms_per_hour", "false alarms per hour"),
+        (axes[1], "miss_rate", "miss rate (missed / threats)"),
+    ):
+        rates = [getattr(summaries[m], attr) for m in names]
+        values = np.array([r.value for r in rates])
+        err = np.array([[r.value - r.lo for r in rates], [r.hi - r.value for r in rates]])
+        ax.bar(x, values, color=[_COLORS.get(m, "tab:red") for m in names], yerr=err, capsize=5)
+        ax.set_xticks(x, names)
+        ax.set_ylabel(label)
+        ax.grid(axis="y", alpha=0.3)
+        for xi, v in zip(x, values, strict=True):
+            ax.annotate(
+                f"{v:.3g}",
+                (xi, v),
+                ha="center",
+                va="bottom",
+                fontsize=8,
+                xytext=(0, 2),
+                textcoords="offset points",
+            )
+    c = comparison.collisions
+    fig.suptitle(
+        f"{comparison.result.config.runs} randomised runs, 95% intervals; closed loop: "
+        f"{c['on']} collisions with {c['drive']} alerts, {c['off']} without",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    return fig

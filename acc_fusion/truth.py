@@ -84,8 +84,8 @@ class TruthFrame:
 
     @property
     def state(self) -> np.ndarray:
-        """True relative state ``(N, 3)``: gap, range-rate, relative acceleration."""
-        return np.stack([self.gap, self.range_rate, self.rel_accel], axis=1)
+        """True state ``(N, 3)`` of the estimators: gap, range-rate, lead acceleration."""
+        return np.stack([self.gap, self.range_rate, self.lead_accel], axis=1)
 
 
 class LinearGaussianSource:

@@ -52,8 +52,10 @@ def test_batched_equals_filterpy(name):
         cfg = FusionConfig(engine=engine, filter=LG_FILTER, **CONFIGS[name])
         est = make_estimator(cfg, SENSOR_NAMES, N_PAIRS)
         sensors = linear_sensors(11, **faults)
+        accel = np.random.default_rng(9).normal(0.0, 2.0, (STEPS, N_PAIRS))  # ego input
         runs[engine] = [
-            est.step([s.measure(f) for s in sensors], f.leader_id) for f in scheduled_frames(5)
+            est.step([s.measure(f) for s in sensors], f.leader_id, accel[k])
+            for k, f in enumerate(scheduled_frames(5))
         ]
     isolated_any = False
     for a, b in zip(runs["batched"], runs["filterpy"], strict=True):
