@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $@
 
 run: $(STAMP)
-	$(BIN)/acc-fusion estimation
+	$(BIN)/acc-fusion compare
 
 test: $(STAMP)
 	$(BIN)/ruff check acc_fusion envs scripts tests

@@ -234,7 +234,7 @@ def simulate(
 
     steps = 0
     for _ in tqdm(
-        range(source.n_steps), disable=not progress, desc=cfg.scenario, unit="step", leave=False
+        range(source.n_steps), disable=None if progress else True, desc=cfg.scenario, unit="step", leave=False
     ):
         frame = source.frame()
         active = source.active

@@ -149,7 +149,7 @@ def run_estimation(
     stats = {name: ErrorStats(n_sensors=n_sensors) for name in estimators}
     raw = {s.spec.name: RawStats() for s in sensors}
     frame = source.frame()
-    for _ in tqdm(range(n_steps), disable=not progress, desc="steps", unit="step"):
+    for _ in tqdm(range(n_steps), disable=None if progress else True, desc="steps", unit="step"):
         meas = [s.measure(frame) for s in sensors]
         ests = {name: e.step(meas, frame.leader_id) for name, e in estimators.items()}
         if frame.t >= score_from - 1e-9:

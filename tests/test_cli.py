@@ -50,3 +50,53 @@ def test_bad_number_is_reported_by_name():
         and "--runs: must be >= 1" in res.stderr
         and "Traceback" not in res.stderr
     )
+
+
+def test_run_writes_png_csv_and_json(tmp_path, capsys):
+    assert main(["run", "--scenario", "nhtsa_lvs", "--seed", "1", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "drives the closed loop" in out and "false alarms / h" in out
+    stem = tmp_path / "run_nhtsa_lvs_seed1"
+    assert stem.with_suffix(".png").stat().st_size > 20_000
+    header = stem.with_suffix(".csv").read_text().splitlines()[0]
+    assert "federated_gap" in header and "radar_range" in header and "d_imminent" in header
+    import json
+
+    summary = json.loads(stem.with_suffix(".json").read_text())
+    assert summary["scenario"] == "nhtsa_lvs" and "federated" in summary["methods"]
+
+
+def test_compare_and_config_file(tmp_path, capsys):
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text('runs = 12\nseed = 3\n[warning]\nmodel = "ttc"\n')
+    assert main(["compare", "--config", str(cfg), "--runs", "10", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "FCW comparison: 10 runs of 'random', seed 3" in out
+    assert (tmp_path / "compare.png").stat().st_size > 10_000
+    assert (tmp_path / "compare.json").exists() and (tmp_path / "compare.csv").exists()
+
+
+def test_conformance_exit_code(capsys):
+    assert main(["conformance", "--trials", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "nhtsa_lvs" in out and "PASS" in out
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["run", "--scenario", "nowhere"], "scenario must be one of"),
+        (["compare", "--config", "missing.toml"], "config file 'missing.toml' does not exist"),
+    ],
+)
+def test_user_mistakes_are_one_line_errors(args, message, capsys, tmp_path):
+    assert main([*args, "--out", str(tmp_path)] if args[0] == "run" else args) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_bad_config_key_names_the_key(tmp_path, capsys):
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text("runs: 5\nwarnings:\n  model: ttc\n")
+    assert main(["compare", "--config", str(cfg)]) == 2
+    assert "unknown key 'warnings'" in capsys.readouterr().err

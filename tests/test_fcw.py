@@ -1,0 +1,90 @@
+"""FCW end to end: the comparison, closed loop, conformance, determinism (issue 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acc_fusion.errors import ConfigError
+from acc_fusion.fcw import SimConfig, compare, compare_config, conformance, simulate
+
+
+@pytest.fixture(scope="module")
+def comparison():
+    return compare(compare_config(runs=400, seed=1))
+
+
+def test_federated_has_fewer_false_alarms_than_each_sensor_at_no_higher_miss_rate(comparison):
+    s = comparison.result.summaries
+    fed, radar, ir = s["federated"], s["radar"], s["infrared"]
+    assert fed.false_alarms < ir.false_alarms < radar.false_alarms
+    assert fed.false_alarms_per_hour.hi < radar.false_alarms_per_hour.lo  # clutter rejected
+    assert fed.missed <= min(radar.missed, ir.missed) + 1
+    assert fed.threats > 300  # the suite has real threats, not only exposure
+    # The centralized filter cannot reject the radar's ghosts.
+    assert s["centralized"].false_alarms > 10 * fed.false_alarms
+
+
+def test_closed_loop_warnings_prevent_collisions(comparison):
+    c = comparison.collisions
+    assert c["on"] < c["off"]
+    assert c["off"] > 0.3 * c["runs"]
+
+
+def test_comparison_table_shows_intervals(comparison):
+    text = comparison.table().format()
+    assert "federated" in text and "[" in text and "collisions" in text
+
+
+def test_conformance_passes_every_manoeuvre_with_default_settings():
+    results = conformance(trials=7, seed=0)
+    assert {r.requirement.scenario for r in results} == {
+        "nhtsa_lvs",
+        "nhtsa_lvd",
+        "nhtsa_lvm",
+        "ccrs",
+        "ccrm",
+        "ccrb",
+    }
+    for r in results:
+        assert r.ok, (r.requirement.scenario, r.ttc)
+        assert np.all(r.ttc[np.isfinite(r.ttc)] >= r.requirement.required_ttc - 1e-9) or r.ok
+
+
+def test_a_late_warning_fails_conformance():
+    from acc_fusion.safety import StoppingDistanceParams
+    from acc_fusion.warning import WarningConfig
+
+    late = WarningConfig(
+        params=StoppingDistanceParams(
+            reaction_caution=0.3, reaction_imminent=0.1, decel_caution=8.0, decel_imminent=9.0
+        )
+    )
+    results = conformance(trials=7, seed=0, base=SimConfig(warning=late))
+    assert not all(r.ok for r in results)
+
+
+def test_simulation_is_deterministic_for_a_seed():
+    cfg = SimConfig(
+        scenario="random", runs=30, seed=5, radar={"ghost_rate": 0.1}, drive="federated"
+    )
+    a, b = simulate(cfg), simulate(cfg)
+    for m in cfg.methods:
+        assert a.summaries[m].as_dict() == b.summaries[m].as_dict()
+    assert np.array_equal(a.collided, b.collided)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"scenario": "ccrx"}, "scenario must be one of .*'ccrs'"),
+        ({"runs": 0}, r"runs must be a whole number in \[1"),
+        ({"methods": ("radar", "lidar")}, "methods\\[i\\] must be one of"),
+        ({"drive": "centralized", "methods": ("radar",)}, "drive must be one of 'radar'"),
+        ({"radar": {"range_std": -1.0}}, "radar.range_std"),
+        ({"dt": 0.0}, r"dt must be in \(0"),
+    ],
+)
+def test_bad_config_is_one_clear_error(kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        SimConfig(**kwargs)
