@@ -159,6 +159,13 @@ class Driver:
         """``(N,)`` drivers braking now."""
         return self._braking.copy()
 
+    def reset(self, mask: np.ndarray) -> None:
+        """Forget the warning and braking state of the runs in ``mask`` (a new driver's
+        vehicle in that slot keeps the slot's reaction time and deceleration draws)."""
+        self._onset[mask] = np.nan
+        self._braking[mask] = False
+        self._warned[mask] = False
+
     def step(self, warning: np.ndarray, frame: TruthFrame) -> np.ndarray:
         """The brake request of every driver for the step starting at ``frame.t``.
 

@@ -198,19 +198,27 @@ def _ego_sensors(
 def simulate(
     config: SimConfig,
     *,
+    source=None,
     progress: bool = False,
     on_step: Callable[[StepView], None] | None = None,
     warnings_on: bool = True,
 ) -> SimResult:
     """Run ``config``; with ``warnings_on`` false the driver never hears a warning.
 
-    ``on_step`` (e.g. a :class:`Trace` or :class:`FirstWarning`) sees every step.
+    ``on_step`` (e.g. a :class:`Trace` or :class:`FirstWarning`) sees every step.  ``source``
+    replaces the scripted scenario of ``config`` by another truth source with the same
+    interface (e.g. :class:`acc_fusion.sumo.SumoSource`); its slots are the pairs, its step
+    is ``dt``, and a slot it ``reassigned`` to a new vehicle starts afresh.
     """
     cfg = config
-    n, dt = cfg.runs, cfg.dt
+    dt = cfg.dt
     ss = np.random.SeedSequence(cfg.seed).spawn(4)
-    overrides = {"dt": dt} if cfg.duration is None else {"dt": dt, "duration": cfg.duration}
-    source = make_scenario(cfg.scenario, n, seed=np.random.default_rng(ss[0]), **overrides)
+    if source is None:
+        overrides = {"dt": dt} if cfg.duration is None else {"dt": dt, "duration": cfg.duration}
+        source = make_scenario(
+            cfg.scenario, cfg.runs, seed=np.random.default_rng(ss[0]), **overrides
+        )
+    n = len(source.active)
     specs = cfg.sensor_specs()
     sensors = make_sensors(
         int(ss[1].generate_state(1)[0]),
@@ -234,12 +242,25 @@ def simulate(
 
     steps = 0
     for _ in tqdm(
-        range(source.n_steps), disable=None if progress else True, desc=cfg.scenario, unit="step", leave=False
+        range(source.n_steps),
+        disable=None if progress else True,
+        desc=cfg.scenario,
+        unit="step",
+        leave=False,
     ):
         frame = source.frame()
         active = source.active
-        meas = [s.measure(frame) for s in sensors]
         accel, wheel = read_ego(frame)
+        new = getattr(source, "reassigned", None)
+        if new is not None and new.any():
+            ego.reset(new, wheel)
+            oracle.reset(new)
+            for m in cfg.methods:
+                estimators[m].forget(new)
+                logic[m].reset(new)
+            if driver is not None:
+                driver.reset(new)
+        meas = [s.measure(frame) for s in sensors]
         v_ego, bias = ego.step(accel, wheel)
         has = frame.has_leader & active
         oracle_level = oracle.step(

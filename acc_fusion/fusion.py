@@ -223,6 +223,14 @@ class Estimator(ABC):
         self._nis = np.full((n, self.n_sensors), np.nan)
         self._reset_state()
 
+    def forget(self, pairs: np.ndarray) -> None:
+        """Drop the tracks of ``pairs`` (a boolean mask), e.g. when a slot gets a new vehicle."""
+        pairs = np.asarray(pairs, dtype=bool)
+        if pairs.any():
+            self.initialised &= ~pairs
+            self._target[pairs] = np.iinfo(np.int64).min
+            self._drop(pairs)
+
     @abstractmethod
     def _reset_state(self) -> None: ...
 
