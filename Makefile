@@ -12,12 +12,12 @@ $(BIN)/python:
 	$(BIN)/pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install --quiet -e ".[test]"
+	$(BIN)/pip install --quiet -e ".[test,sumo]"
 	rm -f $(VENV)/.installed-*
 	touch $@
 
 run: $(STAMP)
-	$(BIN)/acc-fusion compare
+	$(BIN)/acc-fusion sumo --net motorway --end 300
 
 test: $(STAMP)
 	$(BIN)/ruff check acc_fusion envs scripts tests

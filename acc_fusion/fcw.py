@@ -23,7 +23,7 @@ from tqdm.auto import tqdm
 
 from acc_fusion.driver import Driver, DriverConfig
 from acc_fusion.ego import EgoFilterConfig, EgoMotionFilter
-from acc_fusion.errors import ConfigError
+from acc_fusion.errors import AccFusionError, ConfigError
 from acc_fusion.faults import Fault
 from acc_fusion.fusion import FUSION_METHODS, Estimate, FusionConfig, make_estimator
 from acc_fusion.metrics import FCWMetrics, FCWSummary
@@ -241,63 +241,73 @@ def simulate(
     ego_accel = np.zeros(n)  # measured over the previous step: the input of this prediction
 
     steps = 0
-    for _ in tqdm(
-        range(source.n_steps),
-        disable=None if progress else True,
-        desc=cfg.scenario,
-        unit="step",
-        leave=False,
-    ):
-        frame = source.frame()
-        active = source.active
-        accel, wheel = read_ego(frame)
-        new = getattr(source, "reassigned", None)
-        if new is not None and new.any():
-            ego.reset(new, wheel)
-            oracle.reset(new)
-            for m in cfg.methods:
-                estimators[m].forget(new)
-                logic[m].reset(new)
+    t_last = source.t
+    try:
+        for _ in tqdm(
+            range(source.n_steps),
+            disable=None if progress else True,
+            desc=cfg.scenario,
+            unit="step",
+            leave=False,
+        ):
+            frame = source.frame()
+            active = source.active
+            accel, wheel = read_ego(frame)
+            new = getattr(source, "reassigned", None)
+            if new is not None and new.any():
+                ego.reset(new, wheel)
+                oracle.reset(new)
+                for m in cfg.methods:
+                    estimators[m].forget(new)
+                    logic[m].reset(new)
+                if driver is not None:
+                    driver.reset(new)
+            meas = [s.measure(frame) for s in sensors]
+            v_ego, bias = ego.step(accel, wheel)
+            has = frame.has_leader & active
+            oracle_level = oracle.step(
+                np.where(has, frame.gap, 0.0),
+                frame.ego_speed,
+                np.where(has, frame.range_rate, 0.0),
+                np.where(has, frame.lead_accel, 0.0),
+                valid=has,
+            )
+            # True TTC (constant speeds, as the test protocols define it); inf without a leader.
+            ttc = time_to_collision(
+                np.where(has, frame.gap, 1.0), np.where(has, frame.range_rate, 0.0)
+            )
+            ests, levels = {}, {}
+            for m, est_m in estimators.items():
+                est = ests[m] = est_m.step(meas, frame.leader_id, ego_accel)
+                ok = est.valid & active
+                a_lead = np.where(ok, est.x[:, 2], 0.0)
+                levels[m] = logic[m].step(
+                    np.where(ok, est.gap, 0.0),
+                    v_ego,
+                    np.where(ok, est.x[:, 1], 0.0),
+                    a_lead,
+                    gap_std=np.where(ok, est.gap_std, 0.0),
+                    valid=ok,
+                )
+                metrics[m].update(
+                    frame.t, levels[m], oracle_level, ttc, frame.ego_speed, active, source.collided
+                )
+            t_last = frame.t
+            if on_step is not None:
+                on_step(StepView(frame, meas, ests, levels, oracle_level, ttc))
+            brake = None
             if driver is not None:
-                driver.reset(new)
-        meas = [s.measure(frame) for s in sensors]
-        v_ego, bias = ego.step(accel, wheel)
-        has = frame.has_leader & active
-        oracle_level = oracle.step(
-            np.where(has, frame.gap, 0.0),
-            frame.ego_speed,
-            np.where(has, frame.range_rate, 0.0),
-            np.where(has, frame.lead_accel, 0.0),
-            valid=has,
-        )
-        # True TTC (constant speeds, as the test protocols define it); inf without a leader.
-        ttc = time_to_collision(np.where(has, frame.gap, 1.0), np.where(has, frame.range_rate, 0.0))
-        ests, levels = {}, {}
-        for m, est_m in estimators.items():
-            est = ests[m] = est_m.step(meas, frame.leader_id, ego_accel)
-            ok = est.valid & active
-            a_lead = np.where(ok, est.x[:, 2], 0.0)
-            levels[m] = logic[m].step(
-                np.where(ok, est.gap, 0.0),
-                v_ego,
-                np.where(ok, est.x[:, 1], 0.0),
-                a_lead,
-                gap_std=np.where(ok, est.gap_std, 0.0),
-                valid=ok,
-            )
-            metrics[m].update(
-                frame.t, levels[m], oracle_level, ttc, frame.ego_speed, active, source.collided
-            )
-        if on_step is not None:
-            on_step(StepView(frame, meas, ests, levels, oracle_level, ttc))
-        brake = None
-        if driver is not None:
-            brake = driver.step(levels[cfg.drive] if warnings_on else silent, frame)
-        source.advance(brake)
-        ego_accel = accel - bias
-        steps += 1
-        if source.done:
-            break
+                brake = driver.step(levels[cfg.drive] if warnings_on else silent, frame)
+            source.advance(brake)
+            ego_accel = accel - bias
+            steps += 1
+            if source.done:
+                break
+    except AccFusionError as exc:  # the source failed mid-run: keep what was measured
+        for m in metrics.values():
+            m.finish(t_last)
+        exc.summaries = {m: metrics[m].summary() for m in cfg.methods}
+        raise
     t_end = source.t
     for m in metrics.values():
         m.finish(t_end)

@@ -150,9 +150,8 @@ def run_figure(trace, config):
     return fig
 
 
-def compare_figure(comparison):
+def rates_figure(summaries, title: str):
     """False alarms per hour and miss rate of every method, with their 95 % intervals."""
-    summaries = comparison.result.summaries
     names = list(summaries)
     x = np.arange(len(names))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -177,11 +176,6 @@ def compare_figure(comparison):
                 xytext=(0, 2),
                 textcoords="offset points",
             )
-    c = comparison.collisions
-    fig.suptitle(
-        f"{comparison.result.config.runs} randomised runs, 95% intervals; closed loop: "
-        f"{c['on']} collisions with {c['drive']} alerts, {c['off']} without",
-        fontsize=10,
-    )
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig

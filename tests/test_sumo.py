@@ -1,0 +1,343 @@
+"""SUMO truth source on a generated 2-lane road: slots, gap geometry, penetration, arrivals,
+hazards, closed-loop braking, collisions, the SSM cross-check, errors, reproducibility, and
+the one-simulation-per-process rule.  Each test runs at most a few short SUMO simulations."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+libsumo = pytest.importorskip("libsumo")
+
+import acc_fusion.sumo as sumo_mod  # noqa: E402
+from acc_fusion.errors import ConfigError  # noqa: E402
+from acc_fusion.sumo import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
+
+ROUTES = """<routes>
+  <vType id="car" length="4.5" minGap="2.5" accel="2.6" decel="4.5" sigma="0.5" tau="1.0"/>
+  <vType id="truck" length="12.0" minGap="3.0" accel="1.2" decel="4.0" sigma="0.5"
+         maxSpeed="25"/>
+  <route id="r0" edges="A0B0 B0C0"/>
+  <flow id="c" type="car" route="r0" begin="0" end="3600" vehsPerHour="1800"
+        departLane="random" departSpeed="max"/>
+  <flow id="t" type="truck" route="r0" begin="0" end="3600" vehsPerHour="300"
+        departLane="0" departSpeed="max"/>
+</routes>
+"""
+
+LATE_BAD = """<routes>
+  <vehicle id="ok1" depart="10"><route edges="A0B0 B0C0"/></vehicle>
+  <vehicle id="ok2" depart="15"><route edges="A0B0 B0C0"/></vehicle>
+  <vehicle id="bad" depart="30"><route edges="no_such_edge"/></vehicle>
+</routes>
+"""
+
+
+def sumocfg(net: str, routes: str, end: float = 600.0, step: float = 0.1) -> str:
+    return f"""<configuration>
+  <input><net-file value="{net}"/><route-files value="{routes}"/></input>
+  <time><begin value="0"/><end value="{end}"/><step-length value="{step}"/></time>
+</configuration>
+"""
+
+
+@pytest.fixture(scope="module")
+def road(tmp_path_factory):
+    """A straight 2 km road with 2 lanes per direction (netgenerate), cars and trucks."""
+    import sumo
+
+    d = tmp_path_factory.mktemp("sumo_road")
+    exe = os.path.join(sumo.SUMO_HOME, "bin", "netgenerate")
+    cmd = [exe, "--grid", "--grid.x-number", "3", "--grid.y-number", "1"]
+    cmd += ["--grid.x-length", "1000", "-L", "2", "--default.speed", "30"]
+    cmd += ["--no-turnarounds", "true", "-o", str(d / "road.net.xml")]
+    env = {**os.environ, "SUMO_HOME": sumo.SUMO_HOME}
+    subprocess.run(cmd, check=True, capture_output=True, env=env)
+    (d / "road.rou.xml").write_text(ROUTES)
+    (d / "late_bad.rou.xml").write_text(LATE_BAD)
+    (d / "road.sumocfg").write_text(sumocfg("road.net.xml", "road.rou.xml"))
+    (d / "late_bad.sumocfg").write_text(
+        sumocfg("road.net.xml", "road.rou.xml,late_bad.rou.xml", end=100.0)
+    )
+    return d
+
+
+def config(road, **kw) -> SumoConfig:
+    kw.setdefault("end", 60.0)
+    kw.setdefault("capacity", 64)
+    return SumoConfig(str(road / "road.sumocfg"), **kw)
+
+
+def same_lane_gap(follower: str, leader: str) -> float | None:
+    """Bumper-to-bumper gap from lane positions and length, when both share a lane."""
+    veh = libsumo.vehicle
+    if veh.getLaneID(follower) != veh.getLaneID(leader):
+        return None
+    return veh.getLanePosition(leader) - veh.getLength(leader) - veh.getLanePosition(follower)
+
+
+# ---------------------------------------------------------------- no SUMO needed
+def test_missing_and_invalid_files_are_clear_errors(road, tmp_path):
+    missing = tmp_path / "nowhere.sumocfg"
+    with pytest.raises(ConfigError, match="nowhere.sumocfg.*does not exist"):
+        SumoSource(SumoConfig(str(missing)))
+    bad_xml = tmp_path / "broken.sumocfg"
+    bad_xml.write_text("<configuration><input>")
+    with pytest.raises(ConfigError, match="broken.sumocfg.*not valid XML"):
+        check_sumocfg(bad_xml)
+    no_net = tmp_path / "no_net.sumocfg"
+    no_net.write_text(sumocfg("missing.net.xml", str(road / "road.rou.xml")))
+    with pytest.raises(ConfigError, match="net-file .*missing.net.xml.*does not exist"):
+        SumoSource(SumoConfig(str(no_net)))
+    with pytest.raises(ConfigError, match="penetration must be in"):
+        SumoConfig(str(road / "road.sumocfg"), penetration=1.5)
+    with pytest.raises(ConfigError, match="collision_action must be one of"):
+        SumoConfig(str(road / "road.sumocfg"), collision_action="explode")
+    assert not libsumo.simulation.isLoaded()
+
+
+def test_net_sumo_rejects_is_a_clear_error(road, tmp_path):
+    """A file SUMO cannot load (routes given as the net) fails with SUMO's reason."""
+    cfg = tmp_path / "wrong.sumocfg"
+    cfg.write_text(sumocfg(str(road / "road.rou.xml"), str(road / "road.rou.xml")))
+    with pytest.raises(SumoError, match="SUMO could not load .*wrong.sumocfg"):
+        SumoSource(SumoConfig(str(cfg)))
+    with SumoSource(config(road, end=1.0)) as src:  # the process can still run SUMO
+        assert src.n_steps == 10
+
+
+# ---------------------------------------------------------------- one simulation each
+def test_frames_shapes_and_gap_geometry(road):
+    with SumoSource(config(road, end=40.0, seed=1)) as src:
+        assert src.dt == pytest.approx(0.1) and src.n_steps == 400
+        n, checked, steps = src.n_pairs, 0, 0
+        frame = src.frame()
+        while not src.done:
+            frame = src.advance()
+            steps += 1
+            active, ids = src.active, src.vehicle_ids
+            assert frame.n_pairs == n and active.shape == (n,) and len(ids) == n
+            for arr in (frame.ego_speed, frame.gap, frame.lead_speed, src.collided):
+                assert arr.shape == (n,)
+            assert np.array_equal(active, np.array([v is not None for v in ids]))
+            assert np.all(frame.leader_id[~active] == -1) and np.all(frame.ego_speed[~active] == 0)
+            for slot in np.flatnonzero(frame.has_leader):
+                leader = libsumo.vehicle.getLeader(ids[slot], 250.0)
+                geo = same_lane_gap(ids[slot], leader[0])
+                if geo is not None:
+                    assert frame.gap[slot] == pytest.approx(geo, abs=1e-6)
+                    checked += 1
+                assert frame.lead_speed[slot] == pytest.approx(
+                    libsumo.vehicle.getSpeed(leader[0]), abs=1e-12
+                )
+                assert frame.lead_accel[slot] == pytest.approx(
+                    libsumo.vehicle.getAcceleration(leader[0]), abs=1e-9
+                )
+            for slot in np.flatnonzero(active):
+                assert frame.ego_accel[slot] == pytest.approx(
+                    libsumo.vehicle.getAcceleration(ids[slot]), abs=1e-9
+                )
+        assert steps == 400 and src.t == pytest.approx(40.0)
+        assert checked > 500 and src.active.sum() > 5
+        assert np.all(frame.gap[frame.has_leader] <= 250.0)
+
+
+def test_penetration_equips_about_half(road):
+    with SumoSource(config(road, end=120.0, penetration=0.5, seed=4)) as src:
+        while not src.done:
+            src.advance()
+        present = libsumo.vehicle.getIDList()
+        equipped_present = [v for v in present if src._info[v][1]]
+        assert sorted(v for v in src.vehicle_ids if v) == sorted(equipped_present)
+        share = src.n_equipped / src.n_departed
+        assert src.n_departed > 60 and 0.35 < share < 0.65
+
+
+def test_arrival_frees_the_slot_and_a_later_vehicle_is_reassigned(road):
+    with (
+        pytest.warns(RuntimeWarning, match="capacity = 6"),  # more equipped vehicles wait
+        SumoSource(config(road, end=120.0, capacity=6, seed=2)) as src,
+    ):
+        seen_free, reassigned_after = {}, set()
+        while not src.done:
+            before = src.vehicle_ids
+            src.advance()
+            after, arrived = src.vehicle_ids, set(libsumo.simulation.getArrivedIDList())
+            frame = src.frame()
+            for slot, (old, new) in enumerate(zip(before, after, strict=True)):
+                if old is not None and old in arrived:
+                    assert new is None and not src.active[slot]  # freed, not reused at once
+                    assert frame.leader_id[slot] == -1
+                    seen_free[slot] = old
+                elif slot in seen_free and src.reassigned[slot]:
+                    assert new is not None and new != seen_free[slot]
+                    reassigned_after.add(slot)
+            assert not np.any(src.reassigned & ~src.active)
+        assert seen_free and reassigned_after
+
+
+def test_vehicle_removed_behind_our_back_frees_its_slot(road):
+    """``vehicle.remove`` by another TraCI user is not in the next step's arrivals."""
+    with SumoSource(config(road, end=30.0, penetration=0.5, seed=6)) as src:
+        for _ in range(150):
+            src.advance()
+        slot = int(np.flatnonzero(src.active)[0])
+        vid = src.vehicle_ids[slot]
+        libsumo.vehicle.remove(vid)
+        f = src.advance()
+        assert src.vehicle_ids[slot] is None and not src.active[slot] and f.leader_id[slot] == -1
+        assert vid not in src._info
+        while not src.done:
+            src.advance()
+
+
+def test_hazard_makes_a_leader_brake_at_hazard_decel(road):
+    decel = 6.5
+    with SumoSource(config(road, end=60.0, hazard_rate=150.0, hazard_decel=decel)) as src:
+        hits = 0
+        while not src.done:
+            frame = src.advance()
+            hits += int(np.sum(np.isclose(frame.lead_accel, -decel, atol=1e-6)))
+        assert src.n_hazards > 5 and hits > 10
+        assert not src._hazards or all(h.end > src.t for h in src._hazards.values())
+
+
+def test_closed_loop_brake_and_hand_back(road):
+    with SumoSource(config(road, end=60.0, seed=3)) as src:
+        for _ in range(250):
+            src.advance()
+        f = src.frame()
+        free_road = src.active & (f.ego_speed > 15) & (~f.has_leader | (f.gap > 80))
+        slot = int(np.flatnonzero(free_road)[0])
+        vid = src.vehicle_ids[slot]
+        mode = libsumo.vehicle.getSpeedMode(vid)
+        brake = np.zeros(src.n_pairs)
+        brake[slot] = 3.0
+        for _ in range(10):
+            v0 = src.frame().ego_speed[slot]
+            f = src.advance(brake)
+            assert src.vehicle_ids[slot] == vid
+            assert f.ego_speed[slot] == pytest.approx(v0 - 3.0 * src.dt, abs=1e-9)
+            assert f.ego_accel[slot] == pytest.approx(-3.0, abs=1e-9)
+            assert libsumo.vehicle.getSpeedMode(vid) == mode & ~0b100
+        f = src.advance(np.zeros(src.n_pairs))  # request ends: control handed back
+        assert libsumo.vehicle.getSpeedMode(vid) == mode and not src._ctrl
+        for _ in range(10):
+            f = src.advance()
+        assert f.ego_accel[slot] > -3.0 + 1e-6  # SUMO drives it again (re-accelerates)
+
+
+def test_collision_of_an_inattentive_follower_is_detected(road):
+    cfg = config(road, end=60.0, seed=5, inattentive=1.0, inattentive_action_step=2.0)
+    with SumoSource(cfg) as src:
+        close = np.zeros(src.n_pairs, dtype=bool)
+        while not close.any():  # a follower close behind its leader at speed
+            f = src.advance()
+            close = f.has_leader & (f.gap < 35) & (f.ego_speed > 15) & (src.t > 10)
+        ids = src.vehicle_ids
+        slot = int(np.flatnonzero(close)[np.argmin(f.gap[close])])
+        follower = ids[slot]
+        leader = libsumo.vehicle.getLeader(follower, 250.0)[0]
+        assert src.inattentive[slot] and libsumo.vehicle.getActionStepLength(follower) == 2.0
+        for vid in (follower, leader):
+            libsumo.vehicle.setLaneChangeMode(vid, 0)
+        assert src.inject_hazard(leader, decel=40.0, duration=10.0)
+        for _ in range(60):
+            src.advance()
+            if src.collided[slot]:
+                break
+        assert src.collided[slot] and src.n_collisions >= 1
+        assert 5.0 < src.collision_speed[slot] < 40.0
+        assert not src.active[slot] and src.vehicle_ids[slot] is None  # removed
+        while not src.reassigned[slot] and not src.done:
+            src.advance()
+        assert src.reassigned[slot] and not src.collided[slot]
+
+
+def test_ssm_min_ttc_cross_check(road):
+    cfg = config(road, end=90.0, seed=2, ssm=True, hazard_rate=60.0)
+    ours: dict[str, tuple[float, float]] = {}
+    with SumoSource(cfg) as src:
+        while not src.done:
+            f = src.advance()
+            ids = src.vehicle_ids
+            closing = f.has_leader & (f.ego_speed - f.lead_speed > 1e-9)
+            for slot in np.flatnonzero(closing):
+                ttc = f.gap[slot] / (f.ego_speed[slot] - f.lead_speed[slot])
+                if ttc < ours.get(ids[slot], (np.inf, 0.0))[0]:
+                    ours[ids[slot]] = (ttc, f.gap[slot])
+        ssm = src.ssm_min_ttc()
+    assert set(ssm) >= {v for v in ours} and any(np.isfinite(list(ssm.values())))
+    # SSM's minimum is over every encounter within its 50 m range, ours over the leader only.
+    near = {v: ttc for v, (ttc, gap) in ours.items() if gap < 40.0}
+    assert near and all(ssm[v] <= ttc + 0.01 for v, ttc in near.items())
+    assert sum(abs(ssm[v] - ttc) < 0.01 for v, ttc in near.items()) >= 3
+
+
+def test_reproducible_from_the_seed(road):
+    def run(seed):
+        cfg = config(road, end=30.0, seed=seed, penetration=0.7, hazard_rate=100.0)
+        out = []
+        with SumoSource(cfg) as src:
+            while not src.done:
+                f = src.advance()
+                out.append(np.concatenate([f.leader_id, np.nan_to_num(f.gap), f.ego_speed]))
+            return np.array(out), src.n_hazards
+
+    (a, ha), (b, hb), (c, _) = run(7), run(7), run(8)
+    assert np.array_equal(a, b) and ha == hb and ha > 0
+    assert a.shape != c.shape or not np.array_equal(a, c)
+
+
+def test_one_simulation_per_process(road):
+    with SumoSource(config(road, end=5.0)) as first:
+        with pytest.raises(SumoError, match="already open in this process"):
+            SumoSource(config(road, end=5.0))
+        first.advance()  # the first one is untouched
+        assert first.t == pytest.approx(0.1)
+    with SumoSource(config(road, end=5.0)) as second:  # closed: the next may open
+        second.advance()
+
+
+def test_sumo_failing_mid_run_is_a_clear_error(road):
+    cfg = SumoConfig(str(road / "late_bad.sumocfg"), capacity=16, extra_args=("--route-steps", "5"))
+    src = SumoSource(cfg)
+    with pytest.raises(SumoError, match=r"SUMO failed at t = .*no_such_edge"):
+        while not src.done:
+            src.advance()
+    assert src.closed and src.done and 5.0 <= src.t < 30.0
+    assert src.frame().n_pairs == 16  # the results so far stay readable
+    with pytest.raises(SumoError, match="closed"):
+        src.advance()
+    with SumoSource(config(road, end=1.0)):  # and the process can run SUMO again
+        pass
+
+
+def test_traci_path_gives_the_same_frames(road, monkeypatch):
+    """``gui=True`` drives SUMO through TraCI (here the plain ``sumo`` binary stands in for
+    ``sumo-gui``): same frames as libsumo, warning colours set."""
+
+    def frames(gui):
+        cfg = config(road, end=15.0, seed=9, penetration=0.6, hazard_rate=100.0, gui=gui)
+        out = []
+        with SumoSource(cfg) as src:
+            while not src.done:
+                brake = np.where(src.active & (np.arange(src.n_pairs) % 4 == 0), 2.0, 0.0)
+                f = src.advance(brake)
+                src.set_warning_colors(np.arange(src.n_pairs) % 3)
+                out.append(np.concatenate([f.leader_id, np.nan_to_num(f.gap), f.ego_accel]))
+        return np.array(out)
+
+    real = sumo_mod._sumo_binary
+    monkeypatch.setattr(sumo_mod, "_sumo_binary", lambda gui: real(False))
+    monkeypatch.setattr(sumo_mod, "_has_display", lambda: True)
+    np.testing.assert_allclose(frames(True), frames(False), atol=1e-9)
+
+
+def test_gui_without_display_is_a_clear_error(road, monkeypatch):
+    monkeypatch.setattr(sumo_mod, "_has_display", lambda: False)
+    with pytest.raises(ConfigError, match="gui needs a display"):
+        SumoSource(config(road, gui=True))

@@ -1,0 +1,52 @@
+"""FCW in SUMO traffic: bundled networks, the study with FCW on and off, the CLI (issue 4)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytest.importorskip("libsumo")
+
+from acc_fusion.cli import main  # noqa: E402
+from acc_fusion.errors import ConfigError  # noqa: E402
+from acc_fusion.traffic import bundled_nets, resolve_sumocfg  # noqa: E402
+
+
+def test_bundled_networks_are_installed_package_data():
+    nets = bundled_nets()
+    assert {"motorway", "onramp", "ring", "arterial"} <= set(nets)
+    assert all(p.is_file() for p in nets.values())
+
+
+def test_resolve_errors_name_the_file_or_the_choices(tmp_path):
+    with pytest.raises(ConfigError, match="bundled networks: .*motorway"):
+        resolve_sumocfg(net="autobahn")
+    with pytest.raises(ConfigError, match="does not exist"):
+        resolve_sumocfg(sumocfg=str(tmp_path / "nope.sumocfg"))
+    with pytest.raises(ConfigError, match="exactly one"):
+        resolve_sumocfg()
+
+
+def test_sumo_command_writes_the_table_and_files(tmp_path, capsys):
+    args = ["sumo", "--net", "onramp", "--end", "60", "--hazard-rate", "20", "--out", str(tmp_path)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "FCW in SUMO traffic: onramp.sumocfg" in out
+    assert "federated" in out and "oracle TTC vs SUMO SSM minTTC" in out
+    (summary,) = tmp_path.glob("sumo_onramp_seed0.json")
+    data = json.loads(summary.read_text())
+    assert set(data["fcw_off"]) == {"radar", "infrared", "centralized", "federated"}
+    assert set(data["fcw_on"]) == {"federated"}
+    assert data["ssm"]["vehicles"] > 0 and data["ssm"]["median_rel_diff"] < 0.05
+    assert (tmp_path / "sumo_onramp_seed0.png").stat().st_size > 10_000
+
+
+def test_user_sumocfg_errors_are_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.sumocfg"
+    bad.write_text(
+        "<configuration><input><net-file value='missing.net.xml'/></input></configuration>"
+    )
+    assert main(["sumo", "--sumocfg", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "missing.net.xml" in err and "Traceback" not in err
