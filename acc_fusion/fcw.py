@@ -195,6 +195,99 @@ def _ego_sensors(
     return read
 
 
+@dataclass
+class Perceived:
+    """What the equipped vehicles know at one step, with the oracle's view of the truth."""
+
+    frame: TruthFrame
+    measurements: list[Measurement]
+    v_ego: np.ndarray
+    estimates: dict[str, Estimate]
+    oracle: np.ndarray
+    ttc: np.ndarray
+
+
+class Perception:
+    """Sensors, ego-motion filter, every method's estimator, and the oracle, over N pairs.
+
+    One step of :meth:`step` turns a truth frame into measurements, the ego-speed estimate,
+    one :class:`~acc_fusion.fusion.Estimate` per method, the oracle's warning level (the
+    warning rule on ground truth) and the true TTC.  :func:`simulate` adds each method's
+    warning logic, the metrics and the driver; the gymnasium environment adds a policy.
+    """
+
+    def __init__(self, config: SimConfig, n: int, seeds: np.random.SeedSequence) -> None:
+        cfg, dt = config, config.dt
+        s_sensors, s_ego = seeds.spawn(2)
+        self.config, self.n = cfg, n
+        specs = cfg.sensor_specs()
+        self.sensors = make_sensors(
+            int(s_sensors.generate_state(1)[0]),
+            *specs,
+            radar_faults=cfg.radar_faults,
+            infrared_faults=cfg.infrared_faults,
+        )
+        self._read_ego = _ego_sensors(n, np.random.default_rng(s_ego))
+        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt))
+        # The accelerometer (offset removed by the ego filter) is the model's known input.
+        fusion = replace(
+            cfg.fusion, filter=replace(cfg.fusion.filter, dt=dt, ego_accel_std=ACCEL_STD)
+        )
+        self.estimators = {
+            m: make_estimator(replace(fusion, method=m), SENSOR_NAMES, n, specs)
+            for m in cfg.methods
+        }
+        self.oracle = WarningLogic(cfg.warning, n, dt)
+        self._input = np.zeros(n)  # ego acceleration over the previous step
+        self._accel_now = np.zeros(n)
+
+    def forget(self, pairs: np.ndarray, wheel: np.ndarray) -> None:
+        """Start afresh for ``pairs`` (a slot that got a new vehicle)."""
+        self.ego.reset(pairs, wheel)
+        self.oracle.reset(pairs)
+        for est in self.estimators.values():
+            est.forget(pairs)
+
+    def step(self, frame: TruthFrame, active: np.ndarray, reassigned=None) -> Perceived:
+        """Perceive ``frame`` (the pairs in ``active`` are being driven)."""
+        accel, wheel = self._read_ego(frame)
+        if reassigned is not None and reassigned.any():
+            self.forget(reassigned, wheel)
+        meas = [s.measure(frame) for s in self.sensors]
+        v_ego, bias = self.ego.step(accel, wheel)
+        self._accel_now = accel - bias
+        has = frame.has_leader & active
+        oracle = self.oracle.step(
+            np.where(has, frame.gap, 0.0),
+            frame.ego_speed,
+            np.where(has, frame.range_rate, 0.0),
+            np.where(has, frame.lead_accel, 0.0),
+            valid=has,
+        )
+        # True TTC (constant speeds, as the test protocols define it); inf without a leader.
+        ttc = time_to_collision(np.where(has, frame.gap, 1.0), np.where(has, frame.range_rate, 0.0))
+        ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
+        return Perceived(frame, meas, v_ego, ests, oracle, ttc)
+
+    def advanced(self) -> None:
+        """The source moved one step: this step's acceleration is the next prediction's input."""
+        self._input = self._accel_now
+
+
+def warning_inputs(p: Perceived, method: str, active: np.ndarray) -> dict[str, np.ndarray]:
+    """The arguments of :meth:`WarningLogic.step` for ``method``'s estimate."""
+    est = p.estimates[method]
+    ok = est.valid & active
+    return {
+        "gap": np.where(ok, est.gap, 0.0),
+        "v_ego": p.v_ego,
+        "v_rel": np.where(ok, est.x[:, 1], 0.0),
+        "a_lead": np.where(ok, est.x[:, 2], 0.0),
+        "gap_std": np.where(ok, est.gap_std, 0.0),
+        "valid": ok,
+    }
+
+
 def simulate(
     config: SimConfig,
     *,
@@ -212,33 +305,18 @@ def simulate(
     """
     cfg = config
     dt = cfg.dt
-    ss = np.random.SeedSequence(cfg.seed).spawn(4)
+    s_source, s_perception, s_driver = np.random.SeedSequence(cfg.seed).spawn(3)
     if source is None:
         overrides = {"dt": dt} if cfg.duration is None else {"dt": dt, "duration": cfg.duration}
         source = make_scenario(
-            cfg.scenario, cfg.runs, seed=np.random.default_rng(ss[0]), **overrides
+            cfg.scenario, cfg.runs, seed=np.random.default_rng(s_source), **overrides
         )
     n = len(source.active)
-    specs = cfg.sensor_specs()
-    sensors = make_sensors(
-        int(ss[1].generate_state(1)[0]),
-        *specs,
-        radar_faults=cfg.radar_faults,
-        infrared_faults=cfg.infrared_faults,
-    )
-    read_ego = _ego_sensors(n, np.random.default_rng(ss[2]))
-    ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt))
-    # The accelerometer (offset removed by the ego filter) is the motion model's known input.
-    fusion = replace(cfg.fusion, filter=replace(cfg.fusion.filter, dt=dt, ego_accel_std=ACCEL_STD))
-    estimators = {
-        m: make_estimator(replace(fusion, method=m), SENSOR_NAMES, n, specs) for m in cfg.methods
-    }
+    perception = Perception(cfg, n, s_perception)
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
-    oracle = WarningLogic(cfg.warning, n, dt)
     metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
-    driver = Driver(n, cfg.driver, seed=np.random.default_rng(ss[3])) if cfg.drive else None
+    driver = Driver(n, cfg.driver, seed=np.random.default_rng(s_driver)) if cfg.drive else None
     silent = np.zeros(n, dtype=np.int8)
-    ego_accel = np.zeros(n)  # measured over the previous step: the input of this prediction
 
     steps = 0
     t_last = source.t
@@ -252,54 +330,27 @@ def simulate(
         ):
             frame = source.frame()
             active = source.active
-            accel, wheel = read_ego(frame)
             new = getattr(source, "reassigned", None)
+            p = perception.step(frame, active, new)
             if new is not None and new.any():
-                ego.reset(new, wheel)
-                oracle.reset(new)
                 for m in cfg.methods:
-                    estimators[m].forget(new)
                     logic[m].reset(new)
                 if driver is not None:
                     driver.reset(new)
-            meas = [s.measure(frame) for s in sensors]
-            v_ego, bias = ego.step(accel, wheel)
-            has = frame.has_leader & active
-            oracle_level = oracle.step(
-                np.where(has, frame.gap, 0.0),
-                frame.ego_speed,
-                np.where(has, frame.range_rate, 0.0),
-                np.where(has, frame.lead_accel, 0.0),
-                valid=has,
-            )
-            # True TTC (constant speeds, as the test protocols define it); inf without a leader.
-            ttc = time_to_collision(
-                np.where(has, frame.gap, 1.0), np.where(has, frame.range_rate, 0.0)
-            )
-            ests, levels = {}, {}
-            for m, est_m in estimators.items():
-                est = ests[m] = est_m.step(meas, frame.leader_id, ego_accel)
-                ok = est.valid & active
-                a_lead = np.where(ok, est.x[:, 2], 0.0)
-                levels[m] = logic[m].step(
-                    np.where(ok, est.gap, 0.0),
-                    v_ego,
-                    np.where(ok, est.x[:, 1], 0.0),
-                    a_lead,
-                    gap_std=np.where(ok, est.gap_std, 0.0),
-                    valid=ok,
-                )
+            levels = {}
+            for m in cfg.methods:
+                levels[m] = logic[m].step(**warning_inputs(p, m, active))
                 metrics[m].update(
-                    frame.t, levels[m], oracle_level, ttc, frame.ego_speed, active, source.collided
+                    frame.t, levels[m], p.oracle, p.ttc, frame.ego_speed, active, source.collided
                 )
             t_last = frame.t
             if on_step is not None:
-                on_step(StepView(frame, meas, ests, levels, oracle_level, ttc))
+                on_step(StepView(frame, p.measurements, p.estimates, levels, p.oracle, p.ttc))
             brake = None
             if driver is not None:
                 brake = driver.step(levels[cfg.drive] if warnings_on else silent, frame)
             source.advance(brake)
-            ego_accel = accel - bias
+            perception.advanced()
             steps += 1
             if source.done:
                 break
