@@ -179,3 +179,39 @@ def rates_figure(summaries, title: str):
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def warning_frame(history, title: str = "") -> np.ndarray:
+    """An RGB image of the recent fused gap, the imminent safety distance and the warning.
+
+    ``history`` holds ``(t, fused gap, imminent distance, warning level)`` tuples.
+    """
+    fig, ax = plt.subplots(figsize=(6, 3.2), dpi=80)
+    if history:
+        t, gap, d, level = (np.array(c, dtype=float) for c in zip(*history, strict=True))
+        ax.plot(t, gap, color="tab:green", lw=2, label="fused gap")
+        ax.plot(t, d, ":", color="crimson", lw=1.5, label="safety distance (imminent)")
+        for value, color in ((1, "goldenrod"), (2, "crimson")):
+            ax.fill_between(
+                t,
+                0,
+                1,
+                where=level == value,
+                step="post",
+                color=color,
+                alpha=0.3,
+                transform=ax.get_xaxis_transform(),
+            )
+        now = int(level[-1])
+        ax.set_title(
+            f"{title}  t = {t[-1]:.1f} s  warning: {('none', 'caution', 'imminent')[now]}",
+            fontsize=9,
+        )
+        ax.legend(fontsize=7, loc="upper right")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("gap [m]")
+    fig.tight_layout()
+    fig.canvas.draw()
+    image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return image

@@ -1,0 +1,85 @@
+"""The gymnasium environment: API conformance, determinism, bad input (issue 5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium")
+
+from acc_fusion.envs.collision_warning import OBS_FIELDS, CollisionWarningEnv  # noqa: E402
+
+import acc_fusion  # noqa: E402,F401  (registers the environment)
+from acc_fusion.errors import ConfigError  # noqa: E402
+
+
+def test_gymnasium_env_checker_passes():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make("acc_fusion/CollisionWarning-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    assert env.observation_space.shape == (len(OBS_FIELDS),)
+
+
+def run_episode(env, seed, policy):
+    obs, info = env.reset(seed=seed)
+    rows = [obs]
+    done = False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        rows.append(np.append(obs, reward))
+        done = terminated or truncated
+    return rows
+
+
+def test_a_fixed_seed_gives_identical_episodes():
+    env = CollisionWarningEnv()
+    policy = lambda obs: 2 if obs[0] < 35 and obs[7] else 0  # noqa: E731
+    a, b = run_episode(env, 7, policy), run_episode(env, 7, policy)
+    assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    c = run_episode(env, 8, policy)
+    assert len(c) != len(a) or not all(np.array_equal(x, y) for x, y in zip(a, c, strict=False))
+
+
+def test_warning_the_driver_avoids_collisions_that_silence_causes():
+    env = CollisionWarningEnv(scenario="nhtsa_lvs")
+
+    def never(obs):
+        return 0
+
+    def warn(obs):
+        return 2 if obs[7] and obs[0] < 60 else 0
+
+    crashes = {"never": 0, "warn": 0}
+    for seed in range(5):
+        for name, policy in (("never", never), ("warn", warn)):
+            env.reset(seed=seed)
+            run_episode(env, seed, policy)
+            crashes[name] += (
+                int(env.unwrapped._source.collided[0]) if hasattr(env, "unwrapped") else 0
+            )
+    assert crashes["never"] == 5 and crashes["warn"] < 5
+
+
+def test_render_draws_the_situation():
+    env = CollisionWarningEnv(render_mode="rgb_array")
+    env.reset(seed=3)
+    for _ in range(20):
+        env.step(1)
+    img = env.render()
+    assert img.ndim == 3 and img.shape[2] == 3 and img.std() > 0
+
+
+def test_bad_input_is_a_clear_error():
+    env = CollisionWarningEnv()
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(0)
+    env.reset(seed=0)
+    with pytest.raises(gym.error.InvalidAction, match="action must be 0, 1 or 2"):
+        env.step(3)
+    with pytest.raises(ConfigError, match="source must be one of"):
+        CollisionWarningEnv(source="carla")
+    with pytest.raises(ConfigError, match="highway-env sources are open work"):
+        CollisionWarningEnv(source="highway")
+    with pytest.raises(ConfigError, match="scenario must be one of"):
+        CollisionWarningEnv(scenario="moon")
