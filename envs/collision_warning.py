@@ -15,7 +15,7 @@ from acc_fusion.safety import safety_distances
 from acc_fusion.scenarios import SCENARIOS, make_scenario
 from acc_fusion.studies import SENSOR_NAMES
 from acc_fusion.validation import check_choice, check_range
-from acc_fusion.warning import CAUTION, IMMINENT, LEVEL_NAMES, NONE
+from acc_fusion.warning import CAUTION, IMMINENT, NONE
 
 #: Names of the observation's entries, in order (see the environment's docstring).
 OBS_FIELDS = (
@@ -167,51 +167,32 @@ class CollisionWarningEnv(gym.Env):
         self.observation_space = spaces.Box(
             _LOW.astype(np.float32), _HIGH.astype(np.float32), dtype=np.float32
         )
-        self._source = None
+        self._core: _Core | None = None
         self._history: list[tuple[float, float, float, int]] = []
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        root = np.random.SeedSequence(int(self.np_random.integers(2**63)))
-        s_source, s_perception, s_driver = root.spawn(3)
-        self._source = make_scenario(
-            self.scenario, 1, seed=np.random.default_rng(s_source), dt=self.dt
-        )
-        self._perception = Perception(self.config, 1, s_perception)
-        self._driver = Driver(1, self.config.driver, seed=np.random.default_rng(s_driver))
-        self._steps = 0
-        self._last_seen = np.full(len(SENSOR_NAMES), -np.inf)
+        self._core = _Core(1, self.scenario, self.config, self.reward_config, self.np_random)
         self._history = []
-        self._perceive()
-        return self._observation(), self._info(collided=False)
+        obs, info = self._core.observe(np.zeros(1, dtype=bool))
+        return obs[0], _single(info)
 
     def step(self, action):
-        if self._source is None:
+        if self._core is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         if not self.action_space.contains(action):
             raise gym.error.InvalidAction(
                 f"action must be 0, 1 or 2 (none, caution, imminent), got {action!r}"
             )
-        action = int(action)
-        oracle = int(self._seen.oracle[0])
-        frame = self._seen.frame
-        reward = self._reward(action, oracle)
-        brake = self._driver.step(np.array([action], dtype=np.int8), frame)
-        self._history.append(
-            (frame.t, float(self._seen.estimates["federated"].gap[0]), self._d_imminent(), action)
-        )
+        core = self._core
+        self._history.append((core.t, core.fused_gap[0], core.d_imminent()[0], int(action)))
         del self._history[:-400]
-        self._source.advance(brake)
-        self._perception.advanced()
-        self._steps += 1
-        collided = bool(self._source.collided[0])
-        if collided:
-            reward -= self.reward_config.collision
-        terminated = collided or self._source.done
-        truncated = not terminated and self._steps >= self.max_episode_steps
-        self._perceive()
-        return self._observation(), float(reward), terminated, truncated, self._info(collided)
+        reward = core.act(np.array([action], dtype=np.int8))
+        terminated = core.collided | core.ended
+        truncated = ~terminated & (core.steps >= self.max_episode_steps)
+        obs, info = core.observe(core.collided)
+        return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), _single(info)
 
     def render(self):
         if self.render_mode != "rgb_array":
@@ -220,64 +201,120 @@ class CollisionWarningEnv(gym.Env):
 
         return warning_frame(self._history, self.scenario)
 
-    # ------------------------------------------------------------------ internals
-    def _perceive(self) -> None:
-        frame = self._source.frame()
-        self._seen = self._perception.step(frame, self._source.active)
-        for i, m in enumerate(self._seen.measurements):
-            if m.valid[0]:
-                self._last_seen[i] = frame.t
 
-    def _reward(self, action: int, oracle: int) -> float:
-        w, dt = self.reward_config, self.dt
-        if oracle >= IMMINENT:
-            return (w.timely if action >= IMMINENT else -w.missed) * dt
-        if action >= IMMINENT:
-            return -w.false_alarm * dt
-        if action == CAUTION and oracle == NONE:
-            return -w.nuisance * dt
-        return 0.0
+def _single(info: dict) -> dict:
+    """The info of copy 0 of a batched info dict, as plain Python values."""
+    return {k: v[0].item() if isinstance(v, np.ndarray) else v for k, v in info.items()}
 
-    def _d_imminent(self) -> float:
-        est = self._seen.estimates["federated"]
-        if not est.valid[0]:
-            return float("nan")
+
+class _Core:
+    """The simulation behind the environments, batched over ``n`` copies (array arithmetic).
+
+    Each copy is one run of the scenario: truth source, sensors, ego-motion filter, the
+    federated fusion center, the oracle and the driver, all over arrays of ``n`` pairs.
+    """
+
+    def __init__(self, n, scenario, config, reward, rng: np.random.Generator) -> None:
+        root = np.random.SeedSequence(int(rng.integers(2**63)))
+        s_source, s_perception, s_driver = root.spawn(3)
+        self.n, self.config, self.reward = n, config, reward
+        self.dt = config.dt
+        self.source = make_scenario(scenario, n, seed=np.random.default_rng(s_source), dt=self.dt)
+        self.perception = Perception(config, n, s_perception)
+        self.driver = Driver(n, config.driver, seed=np.random.default_rng(s_driver))
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.last_seen = np.full((len(SENSOR_NAMES), n), -np.inf)
+        self.collided = np.zeros(n, dtype=bool)
+        self._perceive(None)
+
+    @property
+    def t(self) -> float:
+        return float(self.seen.frame.t)
+
+    @property
+    def ended(self) -> np.ndarray:
+        """Copies whose scenario run is over."""
+        return ~self.source.active
+
+    @property
+    def fused_gap(self) -> np.ndarray:
+        est = self.seen.estimates["federated"]
+        return np.where(est.valid, est.gap, np.nan)
+
+    def restart(self, mask: np.ndarray, rng: np.random.Generator) -> None:
+        """Start new runs in the copies of ``mask`` (the others continue)."""
+        self.source.restart(mask, np.random.default_rng(int(rng.integers(2**63))))
+        self.driver.reset(mask)
+        self.steps[mask] = 0
+        self.last_seen[:, mask] = -np.inf
+        self.collided[mask] = False
+        self._perceive(mask)
+
+    def act(self, action: np.ndarray) -> np.ndarray:
+        """Apply the warnings, advance one step; returns the rewards ``(n,)``."""
+        reward = self._reward(action, self.seen.oracle)
+        brake = self.driver.step(action, self.seen.frame)
+        was = self.source.collided
+        self.source.advance(brake)
+        self.perception.advanced()
+        self.steps += 1
+        self.collided = self.source.collided & ~was
+        reward -= self.reward.collision * self.collided
+        self._perceive(None)
+        return reward
+
+    def _perceive(self, reassigned) -> None:
+        frame = self.source.frame()
+        self.seen = self.perception.step(frame, self.source.active, reassigned)
+        for i, m in enumerate(self.seen.measurements):
+            self.last_seen[i, m.valid] = frame.t
+
+    def _reward(self, action: np.ndarray, oracle: np.ndarray) -> np.ndarray:
+        w = self.reward
+        per_s = np.where(
+            oracle >= IMMINENT,
+            np.where(action >= IMMINENT, w.timely, -w.missed),
+            np.where(
+                action >= IMMINENT,
+                -w.false_alarm,
+                np.where((action == CAUTION) & (oracle == NONE), -w.nuisance, 0.0),
+            ),
+        )
+        return per_s * self.dt
+
+    def d_imminent(self) -> np.ndarray:
+        """The imminent safety distance of the fused estimate (NaN without a track)."""
+        est = self.seen.estimates["federated"]
         _, d = safety_distances(
             self.config.warning.model,
-            np.maximum(self._seen.v_ego, 0.0),
-            est.x[:, 1],
-            est.x[:, 2],
+            np.maximum(self.seen.v_ego, 0.0),
+            np.where(est.valid, est.x[:, 1], 0.0),
+            np.where(est.valid, est.x[:, 2], 0.0),
             self.config.warning.params,
         )
-        return float(d[0])
+        return np.where(est.valid, d, np.nan)
 
-    def _observation(self) -> np.ndarray:
-        est, p = self._seen.estimates["federated"], self._seen
-        valid = bool(est.valid[0])
-        std = np.sqrt(np.clip(np.diag(est.p[0]), 0.0, None)) if valid else np.zeros(3)
-        x = est.x[0] if valid else np.array([NO_TRACK_GAP, 0.0, 0.0])
-        t = p.frame.t
-        per_sensor = []
+    def observe(self, collided: np.ndarray) -> tuple[np.ndarray, dict]:
+        """Observations ``(n, 16)`` and the info arrays."""
+        p, est = self.seen, self.seen.estimates["federated"]
+        valid = est.valid
+        std = np.sqrt(np.clip(np.diagonal(est.p, axis1=1, axis2=2), 0.0, None))
+        x = np.where(valid[:, None], est.x, [NO_TRACK_GAP, 0.0, 0.0])
+        std = np.where(valid[:, None], std, 0.0)
+        nis = np.where(np.isfinite(est.nis), np.minimum(est.nis, NIS_CLIP), 0.0)
+        age = np.minimum(p.frame.t - self.last_seen, AGE_CLIP)
+        sensors = []
         for i, m in enumerate(p.measurements):
-            nis = est.nis[0, i]
-            per_sensor += [
-                float(m.valid[0]),
-                float(est.isolated[0, i]),
-                min(float(nis), NIS_CLIP) if np.isfinite(nis) else 0.0,
-                min(t - self._last_seen[i], AGE_CLIP),
-            ]
-        obs = np.array([*x, *std, max(float(p.v_ego[0]), 0.0), float(valid), *per_sensor])
-        return np.clip(obs, _LOW, _HIGH).astype(np.float32)
-
-    def _info(self, collided: bool) -> dict:
-        p = self._seen
-        return {
-            "t": float(p.frame.t),
-            "oracle": int(p.oracle[0]),
-            "oracle_name": LEVEL_NAMES[int(p.oracle[0])],
-            "ttc": float(p.ttc[0]),
-            "ego_speed": float(p.frame.ego_speed[0]),
-            "gap_true": float(p.frame.gap[0]) if p.frame.has_leader[0] else float("nan"),
-            "collided": collided,
-            "active": bool(self._source.active[0]),
+            sensors += [m.valid, est.isolated[:, i], nis[:, i], age[i]]
+        obs = np.column_stack([x, std, np.maximum(p.v_ego, 0.0), valid, np.column_stack(sensors)])
+        obs = np.clip(obs, _LOW, _HIGH).astype(np.float32)
+        info = {
+            "t": np.full(self.n, p.frame.t),
+            "oracle": p.oracle.astype(np.int64),
+            "ttc": p.ttc.astype(float),
+            "ego_speed": p.frame.ego_speed.copy(),
+            "gap_true": np.where(p.frame.has_leader, p.frame.gap, np.nan),
+            "collided": collided.copy(),
+            "active": self.source.active.copy(),
         }
+        return obs, info
