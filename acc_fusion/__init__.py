@@ -14,7 +14,12 @@ def _register_envs() -> None:
         gymnasium.register(
             id="acc_fusion/CollisionWarning-v0",
             entry_point="acc_fusion.envs.collision_warning:CollisionWarningEnv",
+            vector_entry_point="acc_fusion.envs.collision_warning:CollisionWarningVectorEnv",
         )
 
 
 _register_envs()
+
+from acc_fusion.evaluation import evaluate  # noqa: E402
+
+__all__ = ["evaluate"]

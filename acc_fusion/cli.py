@@ -9,6 +9,7 @@ Commands:
     compare      every method on the randomised suite: false alarms, misses, lead time
     conformance  the standard FCW test manoeuvres against the protocols' requirements
     sumo         FCW in SUMO traffic (bundled networks or any .sumocfg), FCW on and off
+    evaluate     a warning policy against the baselines in the gymnasium environment
     estimation   federated fusion against its baselines (RMSE, NEES, cost per pair-step)
 
 Settings come from ``--config FILE`` (TOML or YAML, the fields of
@@ -286,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="radar, infrared, centralized, federated: false alarms, misses, lead time",
         description="Radar alone, infrared alone, centralized and federated fusion on the "
         "same randomised scenarios and seeds (with radar clutter): false alarms per hour and "
-        "per 100 km, miss rate, lead time, with 95%% intervals; then collisions with the "
+        "per 100 km, miss rate, lead time, with 95% intervals; then collisions with the "
         "federated alerts on and off, closed loop, on the same seeds.",
     )
     common(cmp_, "Monte Carlo runs (default 200)")
@@ -315,7 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
         "embedded: every equipped vehicle and its leader are a pair. Twice, in two "
         "processes: FCW off (every method watches, no driver is warned) and FCW on (the "
         "federated alerts make equipped drivers brake), on the same seed. Prints false "
-        "alarms per hour and per 100 km, miss rate, lead time and collisions, with 95%% "
+        "alarms per hour and per 100 km, miss rate, lead time and collisions, with 95% "
         "intervals, and the oracle's TTC against SUMO's SSM device.",
     )
     where = sm.add_mutually_exclusive_group(required=True)
@@ -345,13 +346,17 @@ def build_parser() -> argparse.ArgumentParser:
     sm.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
     sm.set_defaults(func=_cmd_sumo)
 
+    from acc_fusion.evaluation import add_evaluate_parser
+
+    add_evaluate_parser(sub)
+
     est = sub.add_parser(
         "estimation",
         help="compare federated fusion with its baselines (RMSE, NEES, cost)",
         description="Run every fusion method (each sensor alone, centralized sequential and "
         "stacked, federated in its three reset modes, with fault isolation, and the plain "
         "formula) on the same car-following truth and measurements; print RMSE, mean NEES "
-        "with its 95%% bounds, and the cost per pair-step.",
+        "with its 95% bounds, and the cost per pair-step.",
     )
     est.add_argument(
         "--runs", type=positive_int, default=500, help="Monte Carlo runs (default 500)"
