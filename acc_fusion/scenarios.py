@@ -47,8 +47,8 @@ Manoeuvres (:data:`SCENARIOS`)
 State (per run, shape ``(N,)``; :meth:`ScenarioSource.state`)
     Ego front-bumper position, speed, acceleration; the leader's rear-bumper position, speed,
     acceleration and length; ``gap`` = leader rear bumper - ego front bumper (bumper to
-    bumper); ``leader_id`` (the vehicle's slot + 1, ``-1`` when there is none); the leader's
-    lateral offset (0 when in lane); ``active``.
+    bumper); ``leader_id`` (the vehicle's slot + 1, plus :data:`SLOTS` per restart of the run;
+    ``-1`` when there is none); the leader's lateral offset (0 when in lane); ``active``.
 
 Kinematics (exact)
     Every vehicle moves with a constant acceleration within a step; a vehicle's script is a list
@@ -85,6 +85,16 @@ Collisions and the end of a run
     its final state with ``leader_id = -1`` (so downstream stages ignore it) and ``active`` is
     False; frames stay valid :class:`~acc_fusion.truth.TruthFrame` s.
 
+Restarting runs (:meth:`ScenarioSource.restart`)
+    The runs of a mask can start a new run of the same scenario at the current time, while the
+    others continue (a vector environment whose copies reset independently).  Every run has
+    its own time origin :attr:`~ScenarioSource.t0` (0 at construction, the restart time
+    after a restart); its script, ``duration`` and ``end_time`` are in *run time*
+    :attr:`~ScenarioSource.run_time` = ``t - t0``, so a restarted run behaves exactly like
+    the same run of a fresh source, except that its leader ids are offset by
+    :data:`SLOTS` per restart (ids stay unique per run, so downstream stages see a new target;
+    see :attr:`~ScenarioSource.generation`) and that ``frame().t`` is the global time.
+
 Randomness and reproducibility
     All randomness (the Monte Carlo draws of :func:`random_suite`, the phases of the lead's
     speed fluctuations and stop-and-go cycles) comes from ``numpy.random.default_rng(seed)``
@@ -112,7 +122,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from acc_fusion.config import from_mapping
-from acc_fusion.errors import ConfigError
+from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.truth import TruthFrame
 from acc_fusion.validation import check_array, check_choice, check_range
 
@@ -836,7 +846,8 @@ class ScenarioState:
         lead_position: leader rear-bumper position [m].
         lead_speed, lead_accel, lead_length: leader speed [m/s], acceleration [m/s²], length [m].
         gap: ``lead_position - ego_position`` [m] (bumper to bumper).
-        leader_id: leader id (its slot + 1), ``-1`` without a leader or after the run ended.
+        leader_id: leader id (its slot + 1, plus :data:`SLOTS` per restart of the run), ``-1``
+            without a leader or after the run ended.
         lateral_offset: leader's lateral offset [m] (0 when in lane).
         active: runs that have not ended.
     """
@@ -884,7 +895,11 @@ class ScenarioSource:
         kind: ``(N,)`` manoeuvre name of each run (mixed for ``random``).
         run_params: ``{field: (N,) array}`` parameters of each run (NaN where a field does not
             apply to the run's kind).
-        duration: ``(N,)`` length of each run [s].
+        duration: ``(N,)`` length of each run [s] (its current run after a :meth:`restart`).
+
+    Times of a run's script, ``duration`` and :attr:`end_time` are run times (:attr:`run_time`,
+    time since the run's :attr:`t0`); they equal the global time :attr:`t` until the run is
+    restarted.
     """
 
     def __init__(
@@ -912,12 +927,17 @@ class ScenarioSource:
             None if duration is None else check_range("duration", duration, 0.0, 1e6, lo_open=True)
         )
         self.params = params
+        self._build, self._horizon = manoeuvre.build, horizon
         plan, self.run_params, self.kind = manoeuvre.build(
             params, self.n_runs, np.random.default_rng(seed), horizon
         )
         self._plan = plan
         self.duration = plan.duration
         self._k = 0
+        self._k0 = np.zeros(self.n_runs, dtype=np.int64)  # step at which each run started
+        self._run_t = np.zeros(self.n_runs)  # run time (self._k - self._k0) * dt
+        self._generation = np.zeros(self.n_runs, dtype=np.int64)
+        self._reassigned = np.zeros(self.n_runs, dtype=bool)
         self._ego_x = np.zeros(self.n_runs)
         self._ego_v = plan.ego_speed.astype(float)
         self._x = plan.position.astype(float)
@@ -936,9 +956,40 @@ class ScenarioSource:
         return self._k * self.dt
 
     @property
+    def t0(self) -> np.ndarray:
+        """``(N,)`` start time of each run's current run [s] (0 until :meth:`restart`)."""
+        return self._k0 * self.dt
+
+    @property
+    def run_time(self) -> np.ndarray:
+        """``(N,)`` time since each run started [s] (``t - t0``, computed per step)."""
+        return self._run_t.copy()
+
+    @property
+    def generation(self) -> np.ndarray:
+        """``(N,)`` number of times each run was restarted."""
+        return self._generation.copy()
+
+    @property
+    def reassigned(self) -> np.ndarray:
+        """``(N,)`` runs restarted since the last :meth:`advance` (reset their per-run state).
+
+        The same flag as :attr:`acc_fusion.sumo.SumoSource.reassigned`: the current frame of
+        these runs is the first frame of a new run.
+        """
+        return self._reassigned.copy()
+
+    @property
     def n_steps(self) -> int:
-        """Number of steps until the longest run's duration."""
-        return int(math.ceil(float(np.max(self.duration)) / self.dt - TIME_TOL))
+        """Step count (from construction, like :attr:`t` / ``dt``) at which the longest current
+        run reaches its duration.
+
+        Without restarts: the number of steps of the longest run.  After a :meth:`restart` it
+        is ``max(t0 + duration) / dt`` over the current runs, so ``n_steps - t / dt`` steps
+        remain until every current run has timed out.
+        """
+        steps = np.ceil(self.duration / self.dt - TIME_TOL).astype(np.int64)
+        return int(np.max(self._k0 + steps))
 
     @property
     def active(self) -> np.ndarray:
@@ -952,7 +1003,8 @@ class ScenarioSource:
 
     @property
     def end_time(self) -> np.ndarray:
-        """``(N,)`` time each run ended [s] (``inf`` while it runs)."""
+        """``(N,)`` run time (:attr:`run_time`) at which each run ended [s] (``inf`` while it
+        runs); the global end time is ``t0 + end_time``."""
         return self._end_time.copy()
 
     @property
@@ -970,7 +1022,7 @@ class ScenarioSource:
         ego_a, target, rate = self._controls()
         slot, has, gap, lat = self._leader()
         active = self.active
-        show = has & (self.t <= self._end_time + TIME_TOL)
+        show = has & (self._run_t <= self._end_time + TIME_TOL)
         moving = active[:, None] & (self._v != target)
         lead_a = np.where(moving, np.sign(target - self._v) * rate, 0.0)[self._rows, slot]
 
@@ -987,7 +1039,7 @@ class ScenarioSource:
             lead_accel=lead(lead_a),
             lead_length=lead(np.full(self.n_runs, VEHICLE_LENGTH)),
             gap=lead(gap),
-            leader_id=np.where(show, slot + 1, -1).astype(np.int64),
+            leader_id=np.where(show, slot + 1 + SLOTS * self._generation, -1).astype(np.int64),
             lateral_offset=lead(lat),
             active=active,
         )
@@ -1025,13 +1077,73 @@ class ScenarioSource:
         )
         self._braked |= active & (self._brake > 0)
         self._k += 1
+        self._run_t = (self._k - self._k0) * self.dt
+        self._reassigned.fill(False)
         self._settle(active)
         return self.frame()
+
+    def restart(self, mask: np.ndarray, seed: int | np.random.Generator | None) -> None:
+        """Start a new run of the scenario, now, for the runs in ``mask``; the others continue.
+
+        The new runs are drawn exactly as a fresh
+        ``ScenarioSource(name, mask.sum(), dt, seed, params, duration)`` would draw its runs
+        (the i-th masked run is that source's run i; same params, duration and ``dt``), and
+        from now on each follows that fresh run step for step: its frame now is the fresh
+        source's first frame, ``k`` steps later its ``k``-th frame, in run time
+        :attr:`run_time` (reset to 0).  Its leader ids are offset by :data:`SLOTS` per restart
+        (:attr:`generation`); ``frame().t`` stays the global time.  The run's ``kind``,
+        ``run_params``, ``duration``, collision and end bookkeeping are replaced (new arrays:
+        arrays read before stay unchanged), and :attr:`reassigned` flags it until the next
+        :meth:`advance`.  An all-False mask does nothing (and draws nothing from ``seed``).
+
+        Args:
+            mask: ``(N,)`` boolean array of the runs to restart.
+            seed: seed of the new runs' draws (``int``, ``numpy.random.Generator`` or ``None``).
+
+        Raises:
+            InputError: ``mask`` is not a boolean array of shape ``(N,)``.
+        """
+        mask = np.asarray(mask)
+        if mask.shape != (self.n_runs,):
+            raise InputError(f"mask must have shape ({self.n_runs},), got {mask.shape}")
+        if mask.dtype != bool:
+            raise InputError(f"mask must be a boolean array, got dtype {mask.dtype}")
+        idx = np.flatnonzero(mask)
+        if idx.size == 0:
+            return
+        sub, runs, kinds = self._build(
+            self.params, idx.size, np.random.default_rng(seed), self._horizon
+        )
+        self._plan = _merge([(self._rows, self._plan), (idx, sub)], self.n_runs)
+        self.duration = self._plan.duration
+        kind = self.kind.astype(np.promote_types(self.kind.dtype, kinds.dtype))
+        kind[idx] = kinds
+        self.kind = kind
+        run_params = {}
+        for name in [*self.run_params, *(f for f in runs if f not in self.run_params)]:
+            column = np.array(self.run_params.get(name, np.full(self.n_runs, np.nan)), float)
+            column[idx] = runs.get(name, np.nan)
+            run_params[name] = column
+        self.run_params = run_params
+        # per-run state: the fresh source's initial state
+        self._k0[idx] = self._k
+        self._run_t = (self._k - self._k0) * self.dt
+        self._generation[idx] += 1
+        self._reassigned[idx] = True
+        self._ego_x[idx] = 0.0
+        self._ego_v[idx] = sub.ego_speed
+        self._x[idx] = sub.position
+        self._v[idx] = sub.speed
+        self._brake[idx] = 0.0
+        self._braked[idx] = False
+        self._end_time[idx] = np.inf
+        self._collided[idx] = False
+        self._collision_speed[idx] = np.nan
 
     # ---- internals
     def _lateral(self) -> np.ndarray:
         start, frm, to, span = np.moveaxis(self._plan.lateral, -1, 0)
-        u = np.clip((self.t - start) / span, 0.0, 1.0)
+        u = np.clip((self._run_t[:, None] - start) / span, 0.0, 1.0)
         return frm + (to - frm) * u * u * (3.0 - 2.0 * u)
 
     def _leader(self):
@@ -1046,7 +1158,8 @@ class ScenarioSource:
     def _controls(self):
         """Ego acceleration and the other vehicles' target speeds and rates for the next step."""
         plan = self._plan
-        seg = np.sum(plan.seg_t <= self.t + TIME_TOL, axis=-1, keepdims=True) - 1
+        now = self._run_t[:, None, None] + TIME_TOL
+        seg = np.sum(plan.seg_t <= now, axis=-1, keepdims=True) - 1
         target = np.take_along_axis(plan.seg_v, seg, axis=-1)[..., 0]
         rate = np.take_along_axis(plan.seg_rate, seg, axis=-1)[..., 0]
         slot, has, gap, _ = self._leader()
@@ -1070,8 +1183,9 @@ class ScenarioSource:
         resolved = (
             ~self._plan.idm & self._braked & ((self._ego_v <= 0) | ~has | (lead_v >= self._ego_v))
         )
-        timeout = self.t >= self.duration - TIME_TOL
-        self._end_time[active & (hit | resolved | timeout)] = self.t
+        timeout = self._run_t >= self.duration - TIME_TOL
+        ended = active & (hit | resolved | timeout)
+        self._end_time[ended] = self._run_t[ended]
 
 
 def make_scenario(

@@ -80,3 +80,46 @@ def test_bad_input_is_a_clear_error():
         CollisionWarningEnv(source="highway")
     with pytest.raises(ConfigError, match="scenario must be one of"):
         CollisionWarningEnv(scenario="moon")
+
+
+def make_vec(n):
+    return gym.make_vec(
+        "acc_fusion/CollisionWarning-v0", num_envs=n, vectorization_mode="vector_entry_point"
+    )
+
+
+def test_native_vector_env_steps_all_copies_and_autoresets():
+    envs = make_vec(16)
+    obs, info = envs.reset(seed=0)
+    assert obs.shape == (16, len(OBS_FIELDS)) and obs.dtype == np.float32
+    assert envs.observation_space.contains(obs)
+    rng = np.random.default_rng(0)
+    pending = np.zeros(16, dtype=bool)
+    ended = 0
+    for _ in range(400):
+        obs, reward, terminated, truncated, info = envs.step(rng.integers(0, 3, 16))
+        assert envs.observation_space.contains(obs)
+        # NEXT_STEP autoreset: the step after an episode ends starts a new one.
+        assert np.all(reward[pending] == 0) and not np.any(terminated[pending])
+        pending = terminated | truncated
+        ended += int(pending.sum())
+    assert ended > 16
+
+
+def test_vector_env_is_deterministic_and_checks_actions():
+    runs = []
+    for _ in range(2):
+        envs = make_vec(8)
+        obs, _ = envs.reset(seed=3)
+        rows = [obs]
+        for k in range(120):
+            obs, r, *_ = envs.step(np.full(8, k % 3))
+            rows.append(np.column_stack([obs, r]))
+        runs.append(np.concatenate(rows, axis=None))
+    assert np.array_equal(runs[0], runs[1])
+    with pytest.raises(gym.error.InvalidAction, match="array of 8 values"):
+        envs.step(np.full(8, 5))
+    with pytest.raises(ConfigError, match="does not render"):
+        from acc_fusion.envs.collision_warning import CollisionWarningVectorEnv
+
+        CollisionWarningVectorEnv(4, render_mode="rgb_array")

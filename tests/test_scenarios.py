@@ -14,6 +14,7 @@ from acc_fusion.scenarios import (
     OVERLAP_OFFSET,
     RANDOM_RANGES,
     SCENARIOS,
+    SLOTS,
     STANDARD,
     CCRbParams,
     G,
@@ -208,6 +209,155 @@ def test_bad_input_names_the_field_and_the_allowed_values():
     with pytest.raises(InputError, match=r"ego_brake must have shape \(2,\)"):
         src.advance(np.zeros(3))
     src.advance(np.array([np.nan, 0.0]))  # NaN = no request
+
+
+FRAME_FIELDS = ("gap", "lead_speed", "lead_accel", "ego_speed", "ego_accel", "lateral_offset")
+
+
+def brake_when_close(frame):
+    """A deterministic closed-loop driver: 5 m/s² when the gap is below 15 m."""
+    return np.where((frame.leader_id >= 0) & (frame.gap < 15.0), 5.0, np.nan)
+
+
+def assert_restarted_runs_follow(src, fresh, ref, mask, brake=brake_when_close):
+    """Step ``src`` (just restarted in ``mask``), ``fresh`` and ``ref`` (never restarted) to the
+    end with the same driver: ``src``'s rows in ``mask`` must follow ``fresh`` (leader ids
+    offset by ``SLOTS``), the others ``ref``."""
+    k0 = int(round(src.t / src.dt))
+    rows = {"src": [], "fresh": [], "ref": []}
+    fs, ff, fr = src.frame(), fresh.frame(), ref.frame()
+    for step in range(src.n_steps - k0 + 1):
+        assert fs.t == pytest.approx((k0 + step) * src.dt, abs=1e-9)
+        np.testing.assert_allclose(src.run_time[mask], step * src.dt, atol=1e-9)
+        for key, frame, source in (("src", fs, src), ("fresh", ff, fresh), ("ref", fr, ref)):
+            values = [getattr(frame, name) for name in (*FRAME_FIELDS, "leader_id")]
+            rows[key].append(np.stack([*values, source.active]))
+        b = brake(fs)
+        fs, ff, fr = src.advance(b), fresh.advance(b[mask]), ref.advance(b)
+        assert not src.reassigned.any()
+    assert src.done and fresh.done and ref.done
+    got, want, other = (np.array(rows[key]) for key in ("src", "fresh", "ref"))
+    ids = want[:, -2]
+    want[:, -2] = np.where(ids >= 0, ids + SLOTS, -1)
+    np.testing.assert_allclose(got[:, :, mask], want, atol=1e-9, rtol=0)
+    np.testing.assert_array_equal(got[:, :, ~mask], other[:, :, ~mask])
+    for name in ("end_time", "collided", "collision_speed"):
+        np.testing.assert_array_equal(getattr(src, name)[mask], getattr(fresh, name))
+        np.testing.assert_array_equal(getattr(src, name)[~mask], getattr(ref, name)[~mask])
+
+
+def test_restart_reproduces_a_fresh_source_and_leaves_the_other_runs_alone():
+    n, k0, dt = 40, 37, 0.1
+    a, b = random_suite(n, 3, dt), random_suite(n, 3, dt)  # b: never restarted
+    for _ in range(k0):
+        a.advance(brake_when_close(a.frame())), b.advance(brake_when_close(b.frame()))
+    mask = np.zeros(n, dtype=bool)
+    mask[[1, 5, 17, 30, 31, 39]] = True
+    kind_before = a.kind
+    a.restart(mask, seed=9)
+    fresh = ScenarioSource("random", int(mask.sum()), dt, 9)  # the same draws
+    assert kind_before is not a.kind and np.array_equal(kind_before, b.kind)
+    np.testing.assert_array_equal(a.kind[mask], fresh.kind)
+    np.testing.assert_array_equal(a.kind[~mask], b.kind[~mask])
+    for name, column in a.run_params.items():
+        np.testing.assert_array_equal(column[mask], fresh.run_params.get(name, np.nan))
+        np.testing.assert_array_equal(column[~mask], b.run_params.get(name, np.nan)[~mask])
+    np.testing.assert_array_equal(a.duration[mask], fresh.duration)
+    np.testing.assert_array_equal(a.reassigned, mask)
+    np.testing.assert_allclose(a.t0, np.where(mask, k0 * dt, 0.0), atol=1e-12)
+    np.testing.assert_array_equal(a.generation, mask.astype(int))
+    steps = np.ceil(b.duration[~mask] / dt - 1e-9).astype(int).max()
+    assert a.n_steps == max(steps, k0 + fresh.n_steps)
+    assert_restarted_runs_follow(a, fresh, b, mask)
+    assert a.collided.any() and not a.collided.all()  # both endings were exercised
+
+
+def test_restart_can_bring_in_kinds_and_segments_the_source_did_not_have():
+    kinds = ("ccrs", "stop_and_go")
+    a, b = (make_scenario("random", 2, 11, kinds=kinds, duration=20.0) for _ in range(2))  # ccrs
+    for _ in range(5):
+        a.advance(), b.advance()
+    mask = np.array([False, True])
+    a.restart(mask, seed=0)
+    fresh = make_scenario("random", 1, 0, kinds=kinds, duration=20.0)  # a stop_and_go run
+    assert list(b.kind) == ["ccrs", "ccrs"] and list(a.kind) == ["ccrs", "stop_and_go"]
+    assert np.isnan(a.run_params["vut_speed"][1]) and np.isnan(a.run_params["cruise_speed"][0])
+    assert a.run_params["cruise_speed"][1] == fresh.run_params["cruise_speed"][0]
+    assert_restarted_runs_follow(a, fresh, b, mask)
+
+
+def test_restarting_ended_runs_makes_them_active_again():
+    src = make_scenario("nhtsa_lvs", 3)  # every run hits the stopped POV at 6 s
+    run(src)
+    assert src.done and src.collided.all()
+    mask = np.array([True, False, True])
+    src.restart(mask, seed=None)
+    assert not src.done
+    np.testing.assert_array_equal(src.active, mask)
+    np.testing.assert_array_equal(src.collided, ~mask)
+    np.testing.assert_array_equal(np.isnan(src.collision_speed), mask)
+    np.testing.assert_array_equal(src.end_time, [np.inf, 6.0, np.inf])
+    frame = src.frame()  # run 1 shows its final (collision) frame once more
+    np.testing.assert_array_equal(frame.leader_id, [1 + SLOTS, 1, 1 + SLOTS])
+    np.testing.assert_allclose(frame.gap[mask], 6 * 45 * MPH, atol=1e-9)  # initial TTC 6 s
+    np.testing.assert_allclose(frame.ego_speed, [45 * MPH, 0.0, 45 * MPH], atol=1e-12)
+    assert src.n_steps == 120 + 320  # restarted at step 120; the runs last 16 s
+    assert src.advance().leader_id[1] == -1  # frozen
+    run(src)
+    assert src.collided.all() and src.t == pytest.approx(12.0)
+    np.testing.assert_allclose(src.end_time, 6.0, atol=1e-9)  # run time
+    np.testing.assert_allclose(src.t0 + src.end_time, [12.0, 6.0, 12.0], atol=1e-9)
+    np.testing.assert_allclose(src.collision_speed, 45 * MPH, atol=1e-9)
+    src.restart(np.array([True, False, False]), seed=None)  # ids stay unique per run
+    assert src.frame().leader_id[0] == 1 + 2 * SLOTS
+    np.testing.assert_array_equal(src.generation, [2, 0, 1])
+
+
+def test_a_run_that_ended_by_braking_restarts_without_the_old_brake():
+    src = make_scenario("nhtsa_lvd", 2)  # the POV brakes at 3 s
+    run(src, brake=lambda f: np.full(2, 8.0) if f.t >= 3.5 else None)
+    assert src.done and not src.collided.any()  # the braking drivers resolved the threat
+    src.restart(np.array([True, False]), seed=None)
+    assert src.frame().ego_accel[0] == 0.0  # no brake request carried over
+    fresh = make_scenario("nhtsa_lvd", 1)
+    run(src), run(fresh)  # no driver now: a scripted run ends only at the collision
+    assert src.collided[0] and src.end_time[0] == fresh.end_time[0] > 3.0
+
+
+def test_restart_takes_the_grid_points_of_a_fresh_source():
+    src = make_scenario("ccrb", 4)  # headway x decel: (12, 2), (12, 6), (40, 2), (40, 6)
+    for _ in range(10):
+        src.advance()
+    src.restart(np.array([False, False, True, True]), seed=0)  # a fresh 2-run source: 12 m
+    np.testing.assert_array_equal(src.run_params["headway"], [12, 12, 12, 12])
+    np.testing.assert_array_equal(src.run_params["gvt_decel"], [2, 6, 2, 6])
+    np.testing.assert_allclose(src.frame().gap[2:], 12.0, atol=1e-12)
+
+
+def test_restart_with_an_empty_mask_is_a_no_op():
+    a, b = random_suite(10, seed=4), random_suite(10, seed=4)
+    for _ in range(20):
+        a.advance(), b.advance()
+    rng = np.random.default_rng(5)
+    before = rng.bit_generator.state
+    a.restart(np.zeros(10, dtype=bool), rng)
+    assert rng.bit_generator.state == before  # nothing drawn
+    assert not a.reassigned.any() and a.n_steps == b.n_steps
+    for _ in range(30):
+        fa, fb = a.advance(), b.advance()
+        for name in (*FRAME_FIELDS, "leader_id"):
+            np.testing.assert_array_equal(getattr(fa, name), getattr(fb, name))
+    np.testing.assert_array_equal(a.end_time, b.end_time)
+
+
+def test_restart_rejects_a_bad_mask():
+    src = make_scenario("ccrs", 3)
+    with pytest.raises(InputError, match=r"mask must have shape \(3,\), got \(4,\)"):
+        src.restart(np.zeros(4, dtype=bool), seed=0)
+    with pytest.raises(InputError, match=r"mask must have shape \(3,\), got \(1, 3\)"):
+        src.restart(np.zeros((1, 3), dtype=bool), seed=0)
+    with pytest.raises(InputError, match="mask must be a boolean array, got dtype int64"):
+        src.restart(np.array([0, 1, 2]), seed=0)
 
 
 def test_every_protocol_manoeuvre_has_a_requirement():
