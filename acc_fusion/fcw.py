@@ -10,7 +10,7 @@ Open loop (``drive=None``) every method observes the same truth, so their false-
 miss rates are compared on identical runs.  Closed loop (``drive="federated"``, say) the
 simulated driver (:mod:`acc_fusion.driver`) reacts to that method's warnings and brakes,
 so the truth itself depends on the warnings; collisions with warnings on and off are then
-compared on the same seeds (:func:`collisions_on_off`).
+compared on the same seeds (:func:`compare`).
 """
 
 from __future__ import annotations
@@ -369,15 +369,6 @@ def simulate(
         collision_speed=source.collision_speed,
         steps=steps,
     )
-
-
-def collisions_on_off(config: SimConfig, *, progress: bool = False) -> dict[str, int]:
-    """Collisions of the same runs (same seeds) with the driver warned by ``config.drive``
-    (default federated) and with no warnings at all."""
-    cfg = config if config.drive else replace(config, drive=config.methods[-1])
-    on = simulate(cfg, progress=progress)
-    off = simulate(cfg, progress=progress, warnings_on=False)
-    return {"on": int(on.collided.sum()), "off": int(off.collided.sum()), "runs": cfg.runs}
 
 
 #: Radar clutter of the comparison runs: ghosts of stationary roadside objects, the classic
