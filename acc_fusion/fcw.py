@@ -376,6 +376,33 @@ def simulate(
 COMPARE_CLUTTER = {"ghost_rate": 0.05}
 
 
+#: Columns of :func:`summary_row`.
+SUMMARY_COLUMNS = (
+    "method",
+    "warnings",
+    "false_alarms",
+    "fa_per_hour",
+    "fa_per_100km",
+    "missed",
+    "miss_rate",
+    "lead_time_median_s",
+)
+
+
+def summary_row(method: str, s: FCWSummary) -> dict:
+    """One method's metrics as a table row (rates with their 95 % intervals)."""
+    return {
+        "method": method,
+        "warnings": s.warnings,
+        "false_alarms": s.false_alarms,
+        "fa_per_hour": s.false_alarms_per_hour.format(),
+        "fa_per_100km": s.false_alarms_per_100km.format(),
+        "missed": f"{s.missed}/{s.threats}",
+        "miss_rate": s.miss_rate.format(),
+        "lead_time_median_s": s.lead_time.median,
+    }
+
+
 def compare_config(**overrides) -> SimConfig:
     """The comparison's defaults: the randomised suite, radar clutter, open loop."""
     overrides.setdefault("radar", COMPARE_CLUTTER)
@@ -398,32 +425,10 @@ class Comparison:
         t = Table(
             f"FCW comparison: {cfg.runs} runs of '{cfg.scenario}', seed {cfg.seed}, "
             f"{level} alerts, tolerance {cfg.tolerance:g} s, 95% intervals",
-            (
-                "method",
-                "warnings",
-                "false_alarms",
-                "fa_per_hour",
-                "fa_per_100km",
-                "missed",
-                "miss_rate",
-                "lead_time_median_s",
-                "ttc_at_warning_median_s",
-            ),
+            (*SUMMARY_COLUMNS, "ttc_at_warning_median_s"),
         )
         for m, s in self.result.summaries.items():
-            t.rows.append(
-                {
-                    "method": m,
-                    "warnings": s.warnings,
-                    "false_alarms": s.false_alarms,
-                    "fa_per_hour": s.false_alarms_per_hour.format(),
-                    "fa_per_100km": s.false_alarms_per_100km.format(),
-                    "missed": f"{s.missed}/{s.threats}",
-                    "miss_rate": s.miss_rate.format(),
-                    "lead_time_median_s": s.lead_time.median,
-                    "ttc_at_warning_median_s": s.ttc_at_warning.median,
-                }
-            )
+            t.rows.append({**summary_row(m, s), "ttc_at_warning_median_s": s.ttc_at_warning.median})
         first = next(iter(self.result.summaries.values()))
         c = self.collisions
         t.notes += [

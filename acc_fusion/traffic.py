@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from acc_fusion.errors import ConfigError
-from acc_fusion.fcw import SimConfig, StepView, simulate
+from acc_fusion.fcw import SUMMARY_COLUMNS, SimConfig, StepView, simulate, summary_row
 from acc_fusion.metrics import FCWSummary
 
 
@@ -137,32 +137,10 @@ class SumoStudy:
         t = Table(
             f"FCW in SUMO traffic: {self.sumocfg.name}, {off.equipped} equipped vehicles, "
             f"{off.hazards} injected hazards, 95% intervals",
-            (
-                "method",
-                "warnings",
-                "false_alarms",
-                "fa_per_hour",
-                "fa_per_100km",
-                "missed",
-                "miss_rate",
-                "lead_time_median_s",
-                "collisions_fcw_off",
-            ),
+            (*SUMMARY_COLUMNS, "collisions_fcw_off"),
         )
         for m, s in off.summaries.items():
-            t.rows.append(
-                {
-                    "method": m,
-                    "warnings": s.warnings,
-                    "false_alarms": s.false_alarms,
-                    "fa_per_hour": s.false_alarms_per_hour.format(),
-                    "fa_per_100km": s.false_alarms_per_100km.format(),
-                    "missed": f"{s.missed}/{s.threats}",
-                    "miss_rate": s.miss_rate.format(),
-                    "lead_time_median_s": s.lead_time.median,
-                    "collisions_fcw_off": s.collisions,
-                }
-            )
+            t.rows.append({**summary_row(m, s), "collisions_fcw_off": s.collisions})
         drive, on_summary = next(iter(on.summaries.items()), (None, None))
         first = next(iter(off.summaries.values()), None)
         if first is not None:
