@@ -12,7 +12,7 @@ $(BIN)/python:
 	$(BIN)/pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install --quiet -e ".[test,sumo]"
+	$(BIN)/pip install --quiet -e ".[all]"
 	rm -f $(VENV)/.installed-*
 	touch $@
 
