@@ -948,6 +948,7 @@ class ScenarioSource:
         self._collided = np.zeros(self.n_runs, dtype=bool)
         self._collision_speed = np.full(self.n_runs, np.nan)
         self._rows = np.arange(self.n_runs)
+        self._frame: TruthFrame | None = None  # the frame of this step, built on demand
 
     # ---- public state
     @property
@@ -1045,8 +1046,11 @@ class ScenarioSource:
         )
 
     def frame(self) -> TruthFrame:
-        """The current truth as a :class:`~acc_fusion.truth.TruthFrame`."""
-        return self.state().frame()
+        """The current truth as a :class:`~acc_fusion.truth.TruthFrame` (built once per step:
+        repeated calls return the same object)."""
+        if self._frame is None:
+            self._frame = self.state().frame()
+        return self._frame
 
     def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
         """Move every active run one step and return the new frame.
@@ -1076,6 +1080,7 @@ class ScenarioSource:
             np.where(active[:, None], v, self._v),
         )
         self._braked |= active & (self._brake > 0)
+        self._frame = None
         self._k += 1
         self._run_t = (self._k - self._k0) * self.dt
         self._reassigned.fill(False)
@@ -1126,6 +1131,7 @@ class ScenarioSource:
             run_params[name] = column
         self.run_params = run_params
         # per-run state: the fresh source's initial state
+        self._frame = None
         self._k0[idx] = self._k
         self._run_t = (self._k - self._k0) * self.dt
         self._generation[idx] += 1

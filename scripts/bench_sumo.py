@@ -8,17 +8,22 @@ fresh process (libsumo allows one simulation per process), one after the other:
   pipeline on every equipped vehicle: radar and infrared sensors, ego-motion filter,
   federated fusion with fault detection, warning logic, oracle and streaming metrics.
 
-It prints both wall times, the peak number of vehicles and equipped pairs, and as its last
-line ``overhead_ratio=<pipeline wall time / bare wall time>`` (target: <= 1.5).
+It prints both wall times, the peak number of vehicles and equipped pairs, the resident
+memory of the pipeline process at a quarter of the run and at its end (memory must stay
+flat: every per-vehicle record is dropped when the vehicle leaves, and the metrics stream),
+and as its last line ``overhead_ratio=<pipeline wall time / bare wall time>`` (target: <= 1.5).
 
-    python scripts/bench_sumo.py            # 600 s simulated
-    python scripts/bench_sumo.py --quick    # 200 s simulated, under a minute
+    python scripts/bench_sumo.py             # 600 s simulated
+    python scripts/bench_sumo.py --quick     # 200 s simulated, under a minute
+    python scripts/bench_sumo.py --end 3600  # one simulated hour: the memory check
 """
 
 from __future__ import annotations
 
 import argparse
 import multiprocessing
+import os
+import resource
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
@@ -46,9 +51,19 @@ def _bare(sumocfg: str, end: float) -> tuple[float, int]:
     return elapsed, peak
 
 
-def _pipeline(sumocfg: str, end: float) -> tuple[float, int]:
-    """Wall time of SUMO with the FCW pipeline on every equipped vehicle, and the peak of
-    simultaneously equipped vehicles."""
+def _rss_mb() -> float:
+    """Resident memory of this process [MB] (Linux /proc; else the peak so far)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except OSError:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+
+
+def _pipeline(sumocfg: str, end: float) -> tuple[float, int, float, float]:
+    """Wall time of SUMO with the FCW pipeline on every equipped vehicle, the peak of
+    simultaneously equipped vehicles, and the resident memory [MB] at a quarter of the run
+    and at its end."""
     from acc_fusion.fcw import SimConfig, simulate
     from acc_fusion.kalman import warmup
     from acc_fusion.sumo import SumoConfig, SumoSource
@@ -56,18 +71,21 @@ def _pipeline(sumocfg: str, end: float) -> tuple[float, int]:
     warmup()
     source = SumoSource(SumoConfig(sumocfg=sumocfg, end=end))
     sim = SimConfig(runs=1, dt=source.dt, methods=("federated",))
-    peak = [0]
+    peak, rss = [0], []
 
     def count(view) -> None:
         peak[0] = max(peak[0], int(source.active.sum()))
+        if not rss and view.frame.t >= source.begin + end / 4:
+            rss.append(_rss_mb())
 
     t0 = time.perf_counter()
     try:
         simulate(replace(sim), source=source, on_step=count)
     finally:
         elapsed = time.perf_counter() - t0
+        rss.append(_rss_mb())
         source.close()
-    return elapsed, peak[0]
+    return elapsed, peak[0], rss[0], rss[-1]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -86,10 +104,14 @@ def main(argv: list[str] | None = None) -> None:
     for name, func in (("bare", _bare), ("pipeline", _pipeline)):
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
             results[name] = pool.submit(func, sumocfg, end).result()
-    (t_bare, peak), (t_pipe, pairs) = results["bare"], results["pipeline"]
+    (t_bare, peak), (t_pipe, pairs, rss_quarter, rss_end) = results["bare"], results["pipeline"]
     print(f"network {args.net}: {end:g} s simulated, peak {peak} vehicles, {pairs} equipped pairs")
     print(f"bare SUMO           {t_bare:8.2f} s wall")
     print(f"SUMO + FCW pipeline {t_pipe:8.2f} s wall")
+    print(
+        f"pipeline process memory: {rss_quarter:.0f} MB at {end / 4:g} s, {rss_end:.0f} MB at "
+        f"{end:g} s ({rss_end - rss_quarter:+.1f} MB)"
+    )
     print(f"overhead_ratio={t_pipe / t_bare:.3f}")
 
 

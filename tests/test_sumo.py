@@ -341,3 +341,44 @@ def test_gui_without_display_is_a_clear_error(road, monkeypatch):
     monkeypatch.setattr(sumo_mod, "_has_display", lambda: False)
     with pytest.raises(ConfigError, match="gui needs a display"):
         SumoSource(config(road, gui=True))
+
+
+@pytest.fixture
+def virtual_display(monkeypatch):
+    """An Xvfb display for sumo-gui (skips where Xvfb is not installed)."""
+    import shutil
+    import time
+
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        pytest.skip("Xvfb is not installed (apt-get install xvfb)")
+    display = f":{90 + os.getpid() % 400}"
+    proc = subprocess.Popen(
+        [exe, display, "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    time.sleep(1.0)
+    if proc.poll() is not None:
+        pytest.skip(f"Xvfb could not start on {display}")
+    monkeypatch.setenv("DISPLAY", display)
+    yield display
+    proc.terminate()
+    proc.wait(timeout=10)
+
+
+def test_real_sumo_gui_colours_vehicles_by_warning_level(road, virtual_display):
+    """The real sumo-gui (on a virtual display) runs the source and shows warning colours."""
+    cfg = config(road, end=10.0, seed=3, penetration=1.0, gui=True)
+    with SumoSource(cfg) as src:
+        assert os.path.basename(sumo_mod._sumo_binary(True)).startswith("sumo-gui")
+        levels = np.arange(src.n_pairs) % 3
+        while not src.done and src.active.sum() < 3:
+            src.advance()
+        assert src.active.sum() >= 3
+        src.set_warning_colors(levels)
+        src.advance()
+        for slot in np.flatnonzero(src.active)[:6]:
+            vid = src.vehicle_ids[slot]
+            colour = tuple(src._api.vehicle.getColor(vid))[:3]
+            assert colour == tuple(sumo_mod.WARNING_COLORS[levels[slot]])[:3]
