@@ -9,7 +9,9 @@ Commands:
     compare      every method on the randomised suite: false alarms, misses, lead time
     conformance  the standard FCW test manoeuvres against the protocols' requirements
     sumo         FCW in SUMO traffic (bundled networks or any .sumocfg), FCW on and off
+    highway      FCW in highway-env traffic, FCW on and off, rendered replays
     evaluate     a warning policy against the baselines in the gymnasium environment
+    sweep        Monte Carlo sweeps (local processes or Ray), resumable, ROC curves, report
     estimation   federated fusion against its baselines (RMSE, NEES, cost per pair-step)
 
 Settings come from ``--config FILE`` (TOML or YAML, the fields of
@@ -61,7 +63,7 @@ def study_parser(doc: str, runs: int, plot_help: str | None = None) -> argparse.
     return parser
 
 
-def _sim_config(args: argparse.Namespace, **defaults):
+def sim_config(args: argparse.Namespace, **defaults):
     """SimConfig from defaults, then ``--config`` FILE, then the flags given."""
     from acc_fusion.config import from_mapping, load_mapping
     from acc_fusion.fcw import SimConfig
@@ -87,12 +89,26 @@ def _write_summary(out, name: str, payload: dict) -> None:
     print(f"wrote {out / name}")
 
 
+def write_study(out, stem: str, table, study, **fields) -> None:
+    """Write a traffic study (FCW off and on): ``stem``.csv (the table), .png (the rates of
+    the FCW-off run) and .json (``fields`` and both runs' summaries) into ``out``."""
+    from acc_fusion.outputs import save_figure_atomic, write_csv_atomic
+    from acc_fusion.plots import rates_figure
+
+    write_csv_atomic(out / f"{stem}.csv", table.columns, table.rows)
+    save_figure_atomic(rates_figure(study.off.summaries, table.title), out / f"{stem}.png")
+    print(f"wrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
+    runs = {"fcw_off": study.off, "fcw_on": study.on}
+    summaries = {k: {m: s.as_dict() for m, s in r.summaries.items()} for k, r in runs.items()}
+    _write_summary(out, f"{stem}.json", {**fields, **summaries})
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from acc_fusion.fcw import Trace, simulate
     from acc_fusion.outputs import output_dir, save_figure_atomic, write_csv_atomic
     from acc_fusion.plots import run_figure
 
-    cfg = _sim_config(args, runs=1, drive="federated", methods=("radar", "infrared", "federated"))
+    cfg = sim_config(args, runs=1, drive="federated", methods=("radar", "infrared", "federated"))
     out = output_dir(args.out)
     trace = Trace(cfg.warning)
     result = simulate(cfg, progress=True, on_step=trace)
@@ -124,7 +140,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from acc_fusion.outputs import output_dir, save_figure_atomic, write_csv_atomic
     from acc_fusion.plots import rates_figure
 
-    cfg = _sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
+    cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
     out = output_dir(args.out) if args.out else None
     comparison = compare(cfg, progress=True)
     table = comparison.table()
@@ -154,7 +170,7 @@ def _cmd_conformance(args: argparse.Namespace) -> int:
     from acc_fusion.fcw import conformance
     from acc_fusion.outputs import output_dir, write_csv_atomic
 
-    cfg = _sim_config(args)
+    cfg = sim_config(args)
     out = output_dir(args.out) if args.out else None
     results = conformance(args.trials, cfg.seed, cfg, progress=True)
     rows = []
@@ -194,8 +210,7 @@ def _cmd_conformance(args: argparse.Namespace) -> int:
 
 
 def _cmd_sumo(args: argparse.Namespace) -> int:
-    from acc_fusion.outputs import output_dir, save_figure_atomic, write_csv_atomic
-    from acc_fusion.plots import rates_figure
+    from acc_fusion.outputs import output_dir
     from acc_fusion.sumo import SumoConfig
     from acc_fusion.traffic import resolve_sumocfg, sumo_study
 
@@ -211,26 +226,20 @@ def _cmd_sumo(args: argparse.Namespace) -> int:
         step_length=args.step_length,
     )
     out = output_dir(args.out) if args.out else None
-    sim = _sim_config(args, runs=1)
+    sim = sim_config(args, runs=1)
     study = sumo_study(sumo_cfg, sim, progress=True)
     table = study.table()
     print(table.format())
     if out is not None:
-        stem = f"sumo_{path.stem}_seed{sumo_cfg.seed}"
-        write_csv_atomic(out / f"{stem}.csv", table.columns, table.rows)
-        save_figure_atomic(rates_figure(study.off.summaries, table.title), out / f"{stem}.png")
-        print(f"wrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
-        _write_summary(
+        write_study(
             out,
-            f"{stem}.json",
-            {
-                "sumocfg": str(path),
-                "seed": sumo_cfg.seed,
-                "fcw_off": {m: s.as_dict() for m, s in study.off.summaries.items()},
-                "fcw_on": {m: s.as_dict() for m, s in study.on.summaries.items()},
-                "ssm": study.ssm_agreement(),
-                "errors": [e for e in (study.off.error, study.on.error) if e],
-            },
+            f"sumo_{path.stem}_seed{sumo_cfg.seed}",
+            table,
+            study,
+            sumocfg=str(path),
+            seed=sumo_cfg.seed,
+            ssm=study.ssm_agreement(),
+            errors=[e for e in (study.off.error, study.on.error) if e],
         )
     return 1 if (study.off.error or study.on.error) else 0
 
@@ -347,8 +356,12 @@ def build_parser() -> argparse.ArgumentParser:
     sm.set_defaults(func=_cmd_sumo)
 
     from acc_fusion.evaluation import add_evaluate_parser
+    from acc_fusion.highway import add_highway_parser
+    from acc_fusion.sweep import add_sweep_parser
 
+    add_highway_parser(sub)
     add_evaluate_parser(sub)
+    add_sweep_parser(sub)
 
     est = sub.add_parser(
         "estimation",

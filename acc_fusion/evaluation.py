@@ -16,6 +16,12 @@ Same episodes for every policy
     closed (the simulated driver brakes for imminent alerts).  Exposure (hours, km) may thus
     differ between policies: compare rates, not counts.
 
+    The ``sumo`` source runs one long simulation whose seeded reset restarts it (the
+    environment's ``reseeding_restarts``): there only episode 0 is reset with its seed, so every
+    policy starts in the same simulation, and the following episodes are the next equipped
+    vehicles of that simulation (the same ones while the policies' warnings have not changed
+    the traffic).
+
 Judging a step
     ``env.step(action)`` rewards the action against the oracle of the observation it was
     chosen on (the info of the previous ``reset``/``step``), then moves on.  The harness pairs
@@ -229,6 +235,7 @@ def make_env(
     config=None,
     reward=None,
     max_episode_steps: int = 1200,
+    sumo=None,
 ):
     """The :class:`~acc_fusion.envs.collision_warning.CollisionWarningEnv` evaluations run in."""
     from acc_fusion.envs.collision_warning import CollisionWarningEnv
@@ -239,6 +246,7 @@ def make_env(
         config=config,
         reward=reward,
         max_episode_steps=max_episode_steps,
+        sumo=sumo,
     )
 
 
@@ -256,6 +264,7 @@ def evaluate(
     config=None,
     reward=None,
     max_episode_steps: int = 1200,
+    sumo=None,
     env=None,
 ) -> Evaluation:
     """Run ``policy`` for ``episodes`` episodes and judge its warnings against the oracle.
@@ -271,12 +280,13 @@ def evaluate(
         tolerance: the matching window of warnings and threats [s] (default 1).
         progress: show a progress bar over the episodes (on a terminal).
         name: the policy's label (default :func:`policy_name`).
-        config, reward, max_episode_steps: passed to the environment
+        config, reward, max_episode_steps, sumo: passed to the environment
             (:class:`~acc_fusion.fcw.SimConfig`, :class:`~acc_fusion.envs.collision_warning.
-            RewardConfig`, step limit).
+            RewardConfig`, step limit, :class:`~acc_fusion.envs.collision_warning.SumoOptions`
+            of the ``sumo`` source).
         env: an environment to run in instead of a new one (``source``, ``scenario``,
-            ``config``, ``reward`` and ``max_episode_steps`` are then ignored); it is not
-            closed, so one environment can serve several evaluations.
+            ``config``, ``reward``, ``max_episode_steps`` and ``sumo`` are then ignored); it
+            is not closed, so one environment can serve several evaluations.
 
     >>> from acc_fusion.policies import TTCPolicy
     >>> ev = evaluate(TTCPolicy(), episodes=2, seed=1)
@@ -294,8 +304,9 @@ def evaluate(
     FCWMetrics(1, 1.0, tolerance, warn_level)  # check them before building anything
     own_env = env is None
     if own_env:
-        env = make_env(source, scenario, config, reward, max_episode_steps)
+        env = make_env(source, scenario, config, reward, max_episode_steps, sumo)
     base = env.unwrapped
+    seed_first_only = bool(getattr(base, "reseeding_restarts", False))
     source = getattr(base, "source_name", source)
     scenario = getattr(base, "scenario", scenario)
     total_reward, collisions, steps = 0.0, 0, 0
@@ -308,7 +319,8 @@ def evaluate(
             unit="episode",
             leave=False,
         ):
-            obs, info = env.reset(seed=episode_seed(seed, i))
+            seeded = i == 0 or not seed_first_only
+            obs, info = env.reset(seed=episode_seed(seed, i) if seeded else None)
             runner.reset()
             done = False
             while not done:
@@ -399,7 +411,8 @@ def compare_policies(
     **env_kwargs,
 ) -> Table:
     """:func:`evaluate` every policy (keys are the labels) on the same episodes; the table of
-    :func:`comparison_table`.  ``env_kwargs``: ``config``, ``reward``, ``max_episode_steps``.
+    :func:`comparison_table`.  ``env_kwargs``: ``config``, ``reward``, ``max_episode_steps``,
+    ``sumo``.
 
     One environment serves every policy (one after the other).
     """
@@ -643,7 +656,15 @@ def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
         choices=("scripted", "sumo", "highway"),
         help="truth source of the environment (default scripted)",
     )
-    p.add_argument("--scenario", default="random", help="scenario name (default random)")
+    p.add_argument(
+        "--scenario", default="random", help="scenario name, scripted source (default random)"
+    )
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--net",
+        help="bundled SUMO network of --source sumo: motorway (default), onramp, ring, arterial",
+    )
+    where.add_argument("--sumocfg", metavar="PATH", help="a SUMO configuration for --source sumo")
     p.add_argument(
         "--episodes", type=positive_int, default=100, help="episodes per policy (default 100)"
     )
@@ -685,6 +706,17 @@ def _env_config(path: str | None, scenario: str):
     return from_mapping(SimConfig, data)
 
 
+def _sumo_options(args: argparse.Namespace):
+    """The sumo source's options from ``--net`` / ``--sumocfg`` (``None``: the defaults)."""
+    if args.net is None and args.sumocfg is None:
+        return None
+    if args.source != "sumo":
+        raise ConfigError(f"--net and --sumocfg apply to --source sumo, not {args.source!r}")
+    from acc_fusion.envs.collision_warning import SumoOptions
+
+    return SumoOptions(net=args.net, sumocfg=args.sumocfg)
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """``acc-fusion evaluate``: print the comparison table (and write CSV/JSON with ``--out``).
 
@@ -714,6 +746,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         progress=True,
         config=_env_config(args.config, args.scenario),
         max_episode_steps=args.max_steps,
+        sumo=_sumo_options(args),
     )
     table = comparison_table(evaluations)
     print(table.format())

@@ -403,6 +403,39 @@ def summary_row(method: str, s: FCWSummary) -> dict:
     }
 
 
+def on_off_table(
+    title: str,
+    off: dict[str, FCWSummary],
+    on: dict[str, FCWSummary],
+    *,
+    subject: str = "equipped",
+    same: str = "same seed",
+):
+    """The per-method table of a traffic study run with FCW off and on.
+
+    ``off``: every method's metrics of the open-loop run (no driver hears an alert); ``on``:
+    the closed-loop run, whose single method's alerts make the drivers brake, on the same
+    traffic (``same`` says how it is the same).  One row per method of ``off`` (its
+    :func:`summary_row` and its collisions with FCW off), then notes: the exposure and the
+    collisions of the ``subject`` vehicles with FCW off and on.
+    """
+    from acc_fusion.studies import Table
+
+    t = Table(title, (*SUMMARY_COLUMNS, "collisions_fcw_off"))
+    for m, s in off.items():
+        t.rows.append({**summary_row(m, s), "collisions_fcw_off": s.collisions})
+    drive, on_summary = next(iter(on.items()), (None, None))
+    first = next(iter(off.values()), None)
+    if first is not None:
+        t.notes.append(f"exposure: {first.hours:.2f} h, {first.km:.1f} km of {subject} driving")
+    if on_summary is not None:
+        t.notes.append(
+            f"{subject}-vehicle collisions: {first.collisions if first else '-'} with FCW off, "
+            f"{on_summary.collisions} with {drive} FCW on ({same})"
+        )
+    return t
+
+
 def compare_config(**overrides) -> SimConfig:
     """The comparison's defaults: the randomised suite, radar clutter, open loop."""
     overrides.setdefault("radar", COMPARE_CLUTTER)

@@ -55,12 +55,17 @@ Exposure (hours, km) and the per-step confusion matrix count active pair-steps o
 
 Memory is constant: a few per-pair arrays, a fixed number of counters, and fixed-bin
 histograms (:class:`acc_fusion.stats.Histogram`) for lead times and TTCs.
+
+Per pair
+    The same counts, the exposure and the sum of lead times are also kept per pair
+    (:meth:`FCWMetrics.per_pair`), so that a batch of N independent Monte Carlo runs gives one
+    row per run (:mod:`acc_fusion.sweep`).  They add up to the totals of :meth:`summary`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -92,16 +97,16 @@ class _Events:
         self.start = np.zeros(n_pairs)
         self.end = np.zeros(n_pairs)
 
-    def step(self, t: float, now: np.ndarray, horizon: float) -> tuple[np.ndarray, int]:
+    def step(self, t: float, now: np.ndarray, horizon: float) -> tuple[np.ndarray, np.ndarray]:
         """Advance to time ``t`` with the flags ``now``.
 
-        Returns the pairs whose new event starts at ``t`` and the number of unmatched events
-        that stopped being live (their tail passed ``horizon`` after their last interval).
+        Returns the pairs whose new event starts at ``t`` and the pairs whose unmatched event
+        stopped being live (its tail passed ``horizon`` after its last interval).
         """
         held = self.on & now
         self.end[self.on & ~now] = t
         expired = self.live & ~held & (t - self.end > horizon)
-        unmatched = int(np.count_nonzero(expired & ~self.matched))
+        unmatched = expired & ~self.matched
         self.live &= ~expired
         new = now & ~self.on & ~self.live
         self.live |= new
@@ -110,9 +115,9 @@ class _Events:
         self.on[:] = now
         return new, unmatched
 
-    def finish(self) -> int:
-        """End every event; returns the number of unmatched ones."""
-        unmatched = int(np.count_nonzero(self.live & ~self.matched))
+    def finish(self) -> np.ndarray:
+        """End every event; returns the pairs whose event was unmatched."""
+        unmatched = self.live & ~self.matched
         self.on[:] = False
         self.live[:] = False
         return unmatched
@@ -133,6 +138,8 @@ class FCWSummary:
         ttc_at_warning: true TTC [s] at the onset of matched warnings.
         ttc_at_any_warning: true TTC [s] at the onset of all warnings.
         confusion: active pair-steps by oracle level (rows) and system level (columns).
+        per_pair: the per-pair figures of :meth:`FCWMetrics.per_pair` (arrays ``(N,)``), or
+            ``None``; left out of :meth:`as_dict`, :meth:`format` and comparisons.
     """
 
     warn_level: int
@@ -154,9 +161,10 @@ class FCWSummary:
     ttc_at_warning: Distribution
     ttc_at_any_warning: Distribution
     confusion: tuple[tuple[int, int, int], ...]
+    per_pair: dict[str, np.ndarray] | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
-        """Plain nested dicts; NaN and ±inf (undefined, unbounded) become ``None``."""
+        """Plain nested dicts (without ``per_pair``); NaN and ±inf become ``None``."""
 
         def clean(x: object) -> object:
             if isinstance(x, dict):
@@ -167,7 +175,7 @@ class FCWSummary:
                 return None
             return x
 
-        return clean(asdict(self))
+        return clean({k: v for k, v in asdict(self).items() if k != "per_pair"})
 
     def format(self) -> str:
         """A readable multi-line summary."""
@@ -201,6 +209,18 @@ class FCWSummary:
         )
 
 
+def event_rates(count: dict, hours: float, km: float, confidence: float = 0.95) -> dict[str, Rate]:
+    """False alarms per hour and per 100 km (exact Poisson), miss rate and false-alarm ratio
+    (Wilson), from event counts (keys as :meth:`FCWMetrics.per_pair`) and exposure [h, km]."""
+    false_alarms = count["false_alarms"]
+    return {
+        "false_alarms_per_hour": Rate.poisson(false_alarms, hours, confidence),
+        "false_alarms_per_100km": Rate.poisson(false_alarms, km / 100.0, confidence),
+        "miss_rate": Rate.proportion(count["missed"], count["threats"], confidence),
+        "false_alarm_ratio": Rate.proportion(false_alarms, count["warnings"], confidence),
+    }
+
+
 class FCWMetrics:
     """Streaming false-alarm, miss, lead-time and TTC metrics over N pairs.
 
@@ -211,8 +231,9 @@ class FCWMetrics:
         warn_level: the level that counts as a warning: 1 caution (default) or 2 imminent.
 
     Call :meth:`update` every step, :meth:`finish` at the end of a run, then
-    :meth:`summary`.  After :meth:`finish` the instance can record another run (its time
-    may start again); :meth:`merge` adds the counts of another finished instance.
+    :meth:`summary` (all pairs together) or :meth:`per_pair` (one value per pair).  After
+    :meth:`finish` the instance can record another run (its time may start again);
+    :meth:`merge` adds the counts of another finished instance to the totals.
     """
 
     def __init__(self, n_pairs: int, dt: float, tolerance: float = 1.0, warn_level: int = 1):
@@ -231,6 +252,10 @@ class FCWMetrics:
         self._collided = np.zeros(self.n_pairs, dtype=bool)
         self._last_t = -math.inf
         self._count = dict.fromkeys(_COUNTS, 0)
+        self._pair_count = {name: np.zeros(self.n_pairs, dtype=np.int64) for name in _COUNTS}
+        self._pair_driven_s = np.zeros(self.n_pairs)
+        self._pair_distance_m = np.zeros(self.n_pairs)
+        self._pair_lead_time_s = np.zeros(self.n_pairs)
         self._driven_s = 0.0
         self._distance_m = 0.0
         self._confusion = np.zeros((3, 3), dtype=np.int64)
@@ -317,23 +342,32 @@ class FCWMetrics:
         self._warnings.matched |= both
         self._threats.matched |= both
         self._ttc_matched.add(self._onset_ttc[warn_matched])
-        self._lead_time.add(
-            self._threats.start[threat_matched] - self._warnings.start[threat_matched]
-        )
+        lead = self._threats.start[threat_matched] - self._warnings.start[threat_matched]
+        self._lead_time.add(lead)
+        self._pair_lead_time_s[threat_matched] += lead
 
         n_active = int(np.count_nonzero(active))
         cells = 3 * oracle[active].astype(np.intp) + system[active]
         self._confusion += np.bincount(cells, minlength=9).reshape(3, 3)
         self._driven_s += n_active * self.dt
         self._distance_m += float(speed[active].sum()) * self.dt
-        count = self._count
-        count["warnings"] += int(np.count_nonzero(warn_new))
-        count["threats"] += int(np.count_nonzero(threat_new))
-        count["detected"] += int(np.count_nonzero(threat_matched))
-        count["false_alarms"] += false_alarms
-        count["missed"] += missed
-        count["collisions"] += int(np.count_nonzero(collided & ~self._collided))
+        self._pair_driven_s[active] += self.dt
+        self._pair_distance_m[active] += speed[active] * self.dt
+        self._add(
+            warnings=warn_new,
+            threats=threat_new,
+            detected=threat_matched,
+            false_alarms=false_alarms,
+            missed=missed,
+            collisions=collided & ~self._collided,
+        )
         self._collided[:] = collided
+
+    def _add(self, **events: np.ndarray) -> None:
+        """Count the events of each kind (boolean masks over the pairs), in total and per pair."""
+        for name, mask in events.items():
+            self._count[name] += int(np.count_nonzero(mask))
+            self._pair_count[name] += mask
 
     def finish(self, t: float) -> None:
         """End the run at time ``t`` (>= the last step's time): resolve every open event.
@@ -343,13 +377,15 @@ class FCWMetrics:
         """
         if not float(t) >= self._last_t:
             raise InputError(f"t must not be before the last step's time, got {t!r}")
-        self._count["false_alarms"] += self._warnings.finish()
-        self._count["missed"] += self._threats.finish()
+        self._add(false_alarms=self._warnings.finish(), missed=self._threats.finish())
         self._collided[:] = False
         self._last_t = -math.inf
 
     def merge(self, other: FCWMetrics) -> None:
-        """Add the counts, exposure and distributions of ``other`` (a finished instance)."""
+        """Add the counts, exposure and distributions of ``other`` (a finished instance).
+
+        Only the totals are merged: :meth:`per_pair` keeps describing this instance's pairs.
+        """
         if (other.warn_level, other.tolerance) != (self.warn_level, self.tolerance):
             raise InputError(
                 "merge needs the same warn_level and tolerance, got "
@@ -367,6 +403,20 @@ class FCWMetrics:
         self._ttc_matched.merge(other._ttc_matched)
         self._ttc_all.merge(other._ttc_all)
 
+    def per_pair(self) -> dict[str, np.ndarray]:
+        """Per-pair figures so far (complete after :meth:`finish`), arrays ``(N,)``.
+
+        Keys: the event counts (``warnings``, ``false_alarms``, ``threats``, ``detected``,
+        ``missed``, ``collisions``), ``hours`` and ``km`` of active exposure, and
+        ``lead_time_sum_s``, the sum of the lead times [s] of the pair's detected threats.
+        """
+        return {
+            **{name: c.copy() for name, c in self._pair_count.items()},
+            "hours": self._pair_driven_s / 3600.0,
+            "km": self._pair_distance_m / 1000.0,
+            "lead_time_sum_s": self._pair_lead_time_s.copy(),
+        }
+
     def summary(self, confidence: float = 0.95) -> FCWSummary:
         """The metrics so far (complete after :meth:`finish`), intervals at ``confidence``."""
         count = self._count
@@ -379,12 +429,10 @@ class FCWMetrics:
             **count,
             hours=hours,
             km=km,
-            false_alarms_per_hour=Rate.poisson(count["false_alarms"], hours, confidence),
-            false_alarms_per_100km=Rate.poisson(count["false_alarms"], km / 100.0, confidence),
-            miss_rate=Rate.proportion(count["missed"], count["threats"], confidence),
-            false_alarm_ratio=Rate.proportion(count["false_alarms"], count["warnings"], confidence),
+            **event_rates(count, hours, km, confidence),
             lead_time=self._lead_time.distribution(),
             ttc_at_warning=self._ttc_matched.distribution(),
             ttc_at_any_warning=self._ttc_all.distribution(),
             confusion=tuple(tuple(row) for row in self._confusion.tolist()),
+            per_pair=self.per_pair(),
         )

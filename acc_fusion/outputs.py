@@ -1,8 +1,8 @@
 """Writing results: output folders checked up front, every file written atomically.
 
-A file is written to a temporary name in the same folder and renamed into place, so a run
-that is interrupted leaves either the previous file or the complete new one, never half of
-one.
+A file is written to a temporary name in the same folder, flushed to disk (fsync) and
+renamed into place, so a run that is interrupted (even by ``kill -9`` or a power loss) leaves
+either the previous file or the complete new one, never half of one.
 """
 
 from __future__ import annotations
@@ -31,12 +31,14 @@ def output_dir(path: str | Path) -> Path:
 
 
 def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (temporary file + rename)."""
+    """Write ``data`` to ``path`` atomically (temporary file + fsync + rename)."""
     p = Path(path)
     fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
         os.replace(tmp, p)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

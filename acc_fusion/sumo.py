@@ -599,6 +599,17 @@ class SumoSource:
         """The slot of an equipped vehicle, or ``None``."""
         return self._slot_of.get(vehicle_id)
 
+    def leader_of(self, vehicle_id: str) -> str | None:
+        """SUMO id of the vehicle ahead of ``vehicle_id`` (SUMO's ``getLeader`` within
+        ``lookahead``), or ``None`` (no leader, the vehicle is absent, or SUMO is closed)."""
+        if self._closed or vehicle_id not in self._info or vehicle_id in self._teleporting:
+            return None
+        try:
+            found = self._api.vehicle.getLeader(vehicle_id, self.config.lookahead)
+        except self._errors:
+            return None
+        return found[0] if found and found[0] else None
+
     def ssm_min_ttc(self) -> dict[str, float]:
         """Per equipped vehicle seen so far, the smallest TTC [s] reported by SUMO's SSM device
         (its ``device.ssm.minTTC`` parameter, followed at every step; ``inf`` when it never

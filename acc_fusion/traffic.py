@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from acc_fusion.errors import ConfigError
-from acc_fusion.fcw import SUMMARY_COLUMNS, SimConfig, StepView, simulate, summary_row
+from acc_fusion.fcw import SimConfig, StepView, on_off_table, simulate
 from acc_fusion.metrics import FCWSummary
 
 
@@ -131,25 +131,13 @@ class SumoStudy:
 
     def table(self):
         """Per method: false alarms, misses, lead time, collisions of equipped vehicles."""
-        from acc_fusion.studies import Table
-
         off, on = self.off, self.on
-        t = Table(
+        t = on_off_table(
             f"FCW in SUMO traffic: {self.sumocfg.name}, {off.equipped} equipped vehicles, "
             f"{off.hazards} injected hazards, 95% intervals",
-            (*SUMMARY_COLUMNS, "collisions_fcw_off"),
+            off.summaries,
+            on.summaries,
         )
-        for m, s in off.summaries.items():
-            t.rows.append({**summary_row(m, s), "collisions_fcw_off": s.collisions})
-        drive, on_summary = next(iter(on.summaries.items()), (None, None))
-        first = next(iter(off.summaries.values()), None)
-        if first is not None:
-            t.notes.append(f"exposure: {first.hours:.2f} h, {first.km:.1f} km of equipped driving")
-        if on_summary is not None:
-            t.notes.append(
-                f"equipped-vehicle collisions: {first.collisions if first else '-'} with FCW off, "
-                f"{on_summary.collisions} with {drive} FCW on (same seed)"
-            )
         agree = self.ssm_agreement()
         t.notes.append(
             f"oracle TTC vs SUMO SSM minTTC: {agree['vehicles']} vehicles, median relative "

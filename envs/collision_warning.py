@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -14,6 +17,8 @@ from acc_fusion.fcw import Perception, SimConfig
 from acc_fusion.safety import safety_distances
 from acc_fusion.scenarios import SCENARIOS, make_scenario
 from acc_fusion.studies import SENSOR_NAMES
+from acc_fusion.sumo import SumoError
+from acc_fusion.truth import TruthFrame
 from acc_fusion.validation import check_choice, check_range
 from acc_fusion.warning import CAUTION, IMMINENT, NONE
 
@@ -28,7 +33,7 @@ OBS_FIELDS = (
     "ego_speed",
     "track_valid",
 ) + tuple(f"{s}_{k}" for s in SENSOR_NAMES for k in ("reporting", "isolated", "nis", "age"))
-#: Truth sources of the environment; only ``scripted`` exists yet.
+#: Truth sources of the environment (``highway`` is not available yet).
 SOURCES = ("scripted", "sumo", "highway")
 #: Values reported where there is no track: the gap at the radar's maximum range.
 NO_TRACK_GAP = 250.0
@@ -63,19 +68,110 @@ class RewardConfig:
             check_range(f"reward.{name}", getattr(self, name), 0.0, 1e6)
 
 
+#: Window of simulated time after an episode's start [s] in which the leader's emergency
+#: braking of :attr:`SumoOptions.lead_hazard` is drawn (uniformly).
+LEAD_HAZARD_WINDOW = (2.0, 20.0)
+
+
+@dataclass(frozen=True)
+class SumoOptions:
+    """Settings of the ``sumo`` source (validated on construction; SI units).
+
+    The source runs one SUMO simulation (libsumo) for the environment's lifetime; an episode
+    follows one equipped vehicle of it (see :class:`CollisionWarningEnv`).
+
+    Attributes:
+        net: a bundled network of ``sumo_nets`` (``motorway``, ``onramp``, ``ring``,
+            ``arterial``); ``None``: ``motorway`` unless ``sumocfg`` is given.
+        sumocfg: path of a user's ``.sumocfg`` instead of ``net``; ``None``.
+        end: simulated seconds of each simulation from its begin time; ``None``: the file's
+            end (3600 s for the bundled networks).  A simulation that ends is restarted with
+            the next seed.
+        warmup: simulated seconds run after each (re)start before the first episode, so that
+            the traffic builds up [s]; 60.
+        penetration: fraction of the vehicles equipped with FCW, in (0, 1]: the vehicles an
+            episode can follow; 0.1.
+        inattentive: fraction of the equipped drivers with a late reaction (SUMO's action step
+            of 1.5 s, :attr:`acc_fusion.sumo.SumoConfig.inattentive`), in [0, 1]: without
+            them SUMO's drivers never need a warning; 1.0.
+        lead_hazard: probability, per episode, that the ego's leader brakes at
+            ``hazard_decel`` for ``hazard_duration`` at a time drawn uniformly in
+            :data:`LEAD_HAZARD_WINDOW`, in [0, 1]; 0.5.
+        hazard_rate: emergency brakings of randomly drawn vehicles per vehicle-hour
+            (:attr:`acc_fusion.sumo.SumoConfig.hazard_rate`); 0.
+        hazard_decel: deceleration of an emergency braking [m/s²]; 8.0.
+        hazard_duration: duration of an emergency braking [s]; 3.0.
+        capacity: maximum number of equipped vehicles tracked at once; 256.
+    """
+
+    net: str | None = None
+    sumocfg: str | None = None
+    end: float | None = None
+    warmup: float = 60.0
+    penetration: float = 0.1
+    inattentive: float = 1.0
+    lead_hazard: float = 0.5
+    hazard_rate: float = 0.0
+    hazard_decel: float = 8.0
+    hazard_duration: float = 3.0
+    capacity: int = 256
+
+    def __post_init__(self) -> None:
+        from acc_fusion.sumo import check_sumocfg
+        from acc_fusion.traffic import resolve_sumocfg
+
+        if self.net is not None and self.sumocfg is not None:
+            raise ConfigError("give one of sumo.net and sumo.sumocfg, not both")
+        net = "motorway" if self.net is None and self.sumocfg is None else self.net
+        path = check_sumocfg(resolve_sumocfg(net, self.sumocfg))
+        object.__setattr__(self, "_path", str(path))
+        check_range("sumo.warmup", self.warmup, 0.0, 86400.0)
+        check_range("sumo.penetration", self.penetration, 0.0, 1.0, lo_open=True)
+        check_range("sumo.lead_hazard", self.lead_hazard, 0.0, 1.0)
+        self.sumo_config(seed=0, dt=0.05)  # the SumoConfig checks the rest, naming the field
+
+    @property
+    def name(self) -> str:
+        """The network's name (the ``.sumocfg``'s stem for a user's file)."""
+        return self.net or Path(self._path).stem
+
+    def sumo_config(self, seed: int, dt: float):
+        """The :class:`acc_fusion.sumo.SumoConfig` of a simulation with SUMO seed ``seed`` and
+        step ``dt`` [s] (the environment's step)."""
+        from acc_fusion.sumo import SumoConfig
+
+        try:
+            return SumoConfig(
+                sumocfg=self._path,
+                end=self.end,
+                penetration=self.penetration,
+                seed=seed,
+                capacity=self.capacity,
+                step_length=dt,
+                hazard_rate=self.hazard_rate,
+                hazard_decel=self.hazard_decel,
+                hazard_duration=self.hazard_duration,
+                inattentive=self.inattentive,
+            )
+        except ConfigError as exc:
+            raise ConfigError(f"sumo.{exc}") from None
+
+
 class CollisionWarningEnv(gym.Env):
     """Decide, every step, which forward-collision warning the driver hears.
 
     ## Description
 
-    An equipped ego vehicle follows a lead vehicle through one scripted scenario (by default
-    the randomised suite of :mod:`acc_fusion.scenarios`: NHTSA and Euro NCAP test manoeuvres,
-    cut-ins, cut-outs, stop-and-go, steady following).  A radar (20 Hz) and an infrared
-    camera (10 Hz) measure the lead; their local Kalman filters and the federated fusion
-    center (with fault detection) estimate its motion; the policy sees what the fusion center
-    knows and chooses the warning.  The simulated driver reacts to an imminent alert after his
-    reaction time and brakes (closed loop).  The oracle, the same warning rule evaluated on
-    ground truth, judges the alerts.
+    An equipped ego vehicle follows a lead vehicle, from a truth source: by default
+    (``source="scripted"``) one scripted scenario (the randomised suite of
+    :mod:`acc_fusion.scenarios`: NHTSA and Euro NCAP test manoeuvres, cut-ins, cut-outs,
+    stop-and-go, steady following); with ``source="sumo"`` one equipped vehicle in SUMO
+    traffic (see *The SUMO source*).  A radar (20 Hz) and an infrared camera (10 Hz) measure
+    the lead; their local Kalman filters and the federated fusion center (with fault
+    detection) estimate its motion; the policy sees what the fusion center knows and chooses
+    the warning.  The simulated driver reacts to an imminent alert after his reaction time and
+    brakes (closed loop).  The oracle, the same warning rule evaluated on ground truth, judges
+    the alerts.
 
     ## Action Space
 
@@ -107,22 +203,53 @@ class CollisionWarningEnv(gym.Env):
 
     ## Starting State
 
-    A new scenario run drawn with the environment's random generator: on ``reset(seed=...)``
-    the manoeuvre, its parameters, the sensor noise and the driver are all drawn from
-    ``self.np_random``.
+    Drawn with the environment's random generator ``self.np_random``: the scenario run (the
+    manoeuvre and its parameters) or, for SUMO, the followed vehicle; the sensor noise and
+    the driver.  The same seed gives the same episode.
 
     ## Episode End
 
     Terminated on a collision or when the scenario's run ends (the ego stopped, the threat
-    passed, or its duration ran out); truncated after ``max_episode_steps`` steps.
+    passed, or its duration ran out; SUMO: the ego left the network); truncated after
+    ``max_episode_steps`` steps, and for SUMO when the simulation reaches its end or fails.
+
+    ## The SUMO source
+
+    ``source="sumo"`` runs one SUMO simulation (libsumo, in-process) for the environment's
+    lifetime, set by ``sumo`` (:class:`SumoOptions`: the network, the fraction of equipped
+    vehicles, inattentive drivers, the leader's emergency brakings).  An episode follows one
+    equipped vehicle, drawn among those that have a leader, until it leaves the network,
+    collides, or the step limit; its driver hears the policy's warnings and brakes (the
+    vehicle is commanded through SUMO).  ``reset()`` picks the next equipped vehicle in the
+    running simulation (advancing SUMO until one has a leader; a vehicle is followed once),
+    so SUMO is not restarted per episode: only when the simulation ends (restarted with the
+    next seed drawn from ``self.np_random``), after a SUMO failure, and on ``reset(seed=s)``,
+    which starts the simulation afresh from ``s`` so that the same seed gives the same episode
+    (Gymnasium's rule).  Seed the first reset of a series of episodes only
+    (:func:`acc_fusion.evaluation.evaluate` does so for this source:
+    :attr:`reseeding_restarts`).  Time in the observations' info restarts at 0 each episode.
+
+    A SUMO failure inside an episode (:class:`~acc_fusion.sumo.SumoError`) ends it: ``step``
+    returns the last observation with reward 0, ``truncated=True`` and the message in
+    ``info["sumo_error"]`` (and warns); the next ``reset()`` restarts the simulation.  libsumo
+    holds one simulation per process, so a second SUMO environment in the same process fails
+    at its first reset with a :class:`~acc_fusion.sumo.SumoError`.
 
     ## Arguments
 
-    ``source`` (``"scripted"``; ``"sumo"`` and ``"highway"`` are not available yet),
-    ``scenario`` (a name of :data:`acc_fusion.scenarios.SCENARIOS`), ``config``
-    (:class:`acc_fusion.fcw.SimConfig`: sensors, fusion, warning model, driver), ``reward``
-    (:class:`RewardConfig`), ``render_mode`` (``None`` or ``"rgb_array"``),
-    ``max_episode_steps``.
+    ``source`` (``"scripted"`` or ``"sumo"``; ``"highway"`` is not available yet),
+    ``scenario`` (a name of :data:`acc_fusion.scenarios.SCENARIOS`; scripted source only),
+    ``config`` (:class:`acc_fusion.fcw.SimConfig`: sensors, fusion, warning model, driver, and
+    the step ``dt``, which SUMO then runs at), ``reward`` (:class:`RewardConfig`),
+    ``render_mode`` (``None`` or ``"rgb_array"``), ``max_episode_steps``, ``sumo``
+    (:class:`SumoOptions` or a mapping of its fields; sumo source only).
+
+    ## Vectorized environment
+
+    The scripted source has a native vector environment, :class:`CollisionWarningVectorEnv`
+    (``gym.make_vec(..., vectorization_mode="vector_entry_point")``).  The SUMO source
+    vectorises with one simulation per process: ``gym.make_vec(...,
+    vectorization_mode="async", source="sumo", vector_kwargs={"context": "spawn"})``.
 
     ## Example
 
@@ -143,12 +270,13 @@ class CollisionWarningEnv(gym.Env):
         reward: RewardConfig | None = None,
         render_mode: str | None = None,
         max_episode_steps: int = 1200,
+        sumo: SumoOptions | dict | None = None,
     ) -> None:
         check_choice("source", source, SOURCES)
-        if source != "scripted":
+        if source == "highway":
             raise ConfigError(
-                f"source {source!r} is not available yet: the environment runs the 'scripted' "
-                "source (the SUMO and highway-env sources are open work)"
+                "source 'highway' is not available yet: the environment runs the 'scripted' "
+                "and 'sumo' sources (the highway-env sources are open work)"
             )
         check_choice("scenario", scenario, tuple(SCENARIOS))
         if render_mode is not None:
@@ -157,8 +285,23 @@ class CollisionWarningEnv(gym.Env):
             raise ConfigError(
                 f"max_episode_steps must be a whole number >= 1, got {max_episode_steps!r}"
             )
+        self._traffic: _SumoTraffic | None = None
+        if source == "sumo":
+            if scenario != "random":
+                raise ConfigError(
+                    f"scenario {scenario!r} applies to the scripted source; the sumo source's "
+                    "traffic comes from its network (sumo={'net': ...})"
+                )
+            self.config = config or SimConfig(runs=1, methods=("federated",))
+            self._traffic = _SumoTraffic(_sumo_options(sumo), self.config.dt)
+            scenario = self._traffic.options.name
+        elif sumo is not None:
+            raise ConfigError(f"sumo options apply to source 'sumo', not {source!r}")
+        else:
+            self.config = config or SimConfig(scenario=scenario, runs=1, methods=("federated",))
         self.source_name, self.scenario = source, scenario
-        self.config = config or SimConfig(scenario=scenario, runs=1, methods=("federated",))
+        #: Whether ``reset(seed=...)`` restarts a long-running simulation (the sumo source).
+        self.reseeding_restarts = self._traffic is not None
         self.reward_config = reward or RewardConfig()
         self.render_mode = render_mode
         self.max_episode_steps = max_episode_steps
@@ -173,7 +316,13 @@ class CollisionWarningEnv(gym.Env):
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self._core = _Core(1, self.scenario, self.config, self.reward_config, self.np_random)
+        self._core = None
+        source = None
+        if self._traffic is not None:
+            source = self._traffic.next_episode(self.np_random, restart=seed is not None)
+        self._core = _Core(
+            1, self.scenario, self.config, self.reward_config, self.np_random, source
+        )
         self._history = []
         obs, info = self._core.observe(np.zeros(1, dtype=bool))
         return obs[0], _single(info)
@@ -188,9 +337,17 @@ class CollisionWarningEnv(gym.Env):
         core = self._core
         self._history.append((core.t, core.fused_gap[0], core.d_imminent()[0], int(action)))
         del self._history[:-400]
-        reward = core.act(np.array([action], dtype=np.int8))
+        try:
+            reward = core.act(np.array([action], dtype=np.int8))
+        except SumoError as exc:
+            self._core = None  # the episode is over; reset() restarts the simulation
+            warnings.warn(f"{exc}; the next reset() restarts it", RuntimeWarning, stacklevel=2)
+            obs, info = core.observe(np.zeros(1, dtype=bool))
+            return obs[0], 0.0, False, True, {**_single(info), "sumo_error": str(exc)}
         terminated = core.collided | core.ended
         truncated = ~terminated & (core.steps >= self.max_episode_steps)
+        if self._traffic is not None:
+            truncated |= ~terminated & self._traffic.sim.done
         obs, info = core.observe(core.collided)
         return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), _single(info)
 
@@ -200,6 +357,163 @@ class CollisionWarningEnv(gym.Env):
         from acc_fusion.plots import warning_frame
 
         return warning_frame(self._history, self.scenario)
+
+    @property
+    def vehicle_id(self) -> str | None:
+        """SUMO id of the vehicle the episode follows (sumo source; ``None`` otherwise)."""
+        return getattr(self._core.source, "vehicle_id", None) if self._core else None
+
+    @property
+    def sumo_starts(self) -> int:
+        """SUMO simulations started so far (sumo source; 0 otherwise)."""
+        return self._traffic.starts if self._traffic is not None else 0
+
+    def close(self):
+        if self._traffic is not None:
+            self._traffic.close()
+        super().close()
+
+
+def _sumo_options(sumo: SumoOptions | dict | None) -> SumoOptions:
+    """``sumo`` as :class:`SumoOptions`; libsumo must be installed."""
+    import importlib.util
+
+    from acc_fusion.config import from_mapping
+
+    if importlib.util.find_spec("libsumo") is None:
+        raise ConfigError(
+            "source 'sumo' needs eclipse-sumo and libsumo: pip install 'acc_fusion[sumo]'"
+        )
+    if sumo is None or isinstance(sumo, SumoOptions):
+        return sumo or SumoOptions()
+    if not isinstance(sumo, dict):
+        raise ConfigError(f"sumo must be SumoOptions or a mapping, got {type(sumo).__name__}")
+    return from_mapping(SumoOptions, sumo, prefix="sumo.")
+
+
+class _SumoEpisode:
+    """One equipped vehicle of a running :class:`~acc_fusion.sumo.SumoSource` as the truth
+    source of one pair, with the interface :class:`_Core` drives (``frame``, ``advance``,
+    ``active``, ``collided``); time counts from the episode's start.
+
+    ``hazard_step``: the step after which the ego's leader starts an emergency braking
+    (``None``: none).
+    """
+
+    def __init__(self, sim, slot: int, hazard_step: int | None) -> None:
+        self.sim, self.slot, self.hazard_step = sim, slot, hazard_step
+        self.vehicle_id = sim.vehicle_ids[slot]
+        self.t0 = sim.t
+        self.steps = 0
+        self._brake = np.zeros(sim.n_pairs)
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(1,)``: the ego is still in the network (in its slot)."""
+        return np.array([self.sim.slot_of(self.vehicle_id) == self.slot])
+
+    @property
+    def collided(self) -> np.ndarray:
+        """``(1,)``: the ego ran into another vehicle (its slot keeps the flag for a step)."""
+        return self.sim.collided[self.slot : self.slot + 1]
+
+    def frame(self) -> TruthFrame:
+        f, k = self.sim.frame(), slice(self.slot, self.slot + 1)
+        return TruthFrame(
+            t=f.t - self.t0,
+            ego_speed=f.ego_speed[k],
+            ego_accel=f.ego_accel[k],
+            gap=f.gap[k],
+            lead_speed=f.lead_speed[k],
+            lead_accel=f.lead_accel[k],
+            leader_id=f.leader_id[k],
+        )
+
+    def advance(self, ego_brake: np.ndarray | None = None) -> None:
+        """One SUMO step with the ego driver's brake request ``(1,)`` [m/s²]."""
+        if self.steps == self.hazard_step:
+            leader = self.sim.leader_of(self.vehicle_id)
+            if leader is not None:
+                self.sim.inject_hazard(leader)
+        self._brake[self.slot] = 0.0 if ego_brake is None else ego_brake[0]
+        self.sim.advance(self._brake)
+        self.steps += 1
+
+
+class _SumoTraffic:
+    """The sumo source's simulation: one :class:`~acc_fusion.sumo.SumoSource` for the
+    environment's lifetime, started lazily (the first ``reset``), restarted only when it
+    ends, fails, or a seeded reset asks for it."""
+
+    #: Attempts at (re)starting SUMO and finding an ego before a reset gives up.
+    ATTEMPTS = 3
+
+    def __init__(self, options: SumoOptions, dt: float) -> None:
+        self.options, self.dt = options, dt
+        self.sim = None
+        self.starts = 0  # simulations started so far
+        self._followed: set[str] = set()
+
+    def next_episode(self, rng: np.random.Generator, restart: bool) -> _SumoEpisode:
+        """The next equipped vehicle with a leader, drawn with ``rng`` (in a new simulation
+        when ``restart``, or when none runs).  A simulation that fails on the way is
+        restarted, at most :attr:`ATTEMPTS` times in all; a load failure is raised at once."""
+        attempt = 1
+        while True:
+            if restart or self.sim is None or self.sim.closed or self.sim.done:
+                self._start(rng)
+            try:
+                return self._pick(rng)
+            except SumoError:
+                if attempt == self.ATTEMPTS:
+                    raise
+                attempt, restart = attempt + 1, True
+
+    def _start(self, rng: np.random.Generator) -> None:
+        from acc_fusion.sumo import SumoSource
+
+        self.close()
+        self.sim = SumoSource(self.options.sumo_config(int(rng.integers(2**31)), self.dt))
+        self.starts += 1
+        self._followed = set()
+        self._warmup = int(math.ceil(self.options.warmup / self.sim.dt - 1e-9))
+
+    def _pick(self, rng: np.random.Generator) -> _SumoEpisode:
+        """Warm up a new simulation, then advance it until a vehicle not followed yet has a
+        leader; a simulation that ends on the way is restarted with the next seed."""
+        fresh = not self._followed
+        while True:
+            sim = self.sim
+            if self._warmup > 0 and not sim.done:
+                self._warmup -= 1
+                sim.advance()
+                continue
+            ids = sim.vehicle_ids
+            slots = np.flatnonzero(sim.active & sim.frame().has_leader)
+            slots = [s for s in slots if ids[s] not in self._followed]
+            if slots:
+                slot = int(slots[rng.integers(len(slots))])
+                self._followed.add(ids[slot])
+                hazard = None
+                if rng.random() < self.options.lead_hazard:
+                    hazard = int(round(rng.uniform(*LEAD_HAZARD_WINDOW) / self.dt))
+                return _SumoEpisode(sim, slot, hazard)
+            if sim.done:
+                if fresh:
+                    raise ConfigError(
+                        f"no equipped vehicle with a leader in SUMO simulation "
+                        f"{sim.config.sumocfg!r} before its end at t = {sim.t:g} s (raise "
+                        "sumo.penetration or sumo.end)"
+                    )
+                self._start(rng)
+                fresh = True
+                continue
+            sim.advance()
+
+    def close(self) -> None:
+        if self.sim is not None:
+            self.sim.close()
+            self.sim = None
 
 
 def _single(info: dict) -> dict:
@@ -212,14 +526,18 @@ class _Core:
 
     Each copy is one run of the scenario: truth source, sensors, ego-motion filter, the
     federated fusion center, the oracle and the driver, all over arrays of ``n`` pairs.
+    ``source`` replaces the scripted scenario by another truth source of ``n`` pairs (the
+    SUMO episode).
     """
 
-    def __init__(self, n, scenario, config, reward, rng: np.random.Generator) -> None:
+    def __init__(self, n, scenario, config, reward, rng: np.random.Generator, source=None):
         root = np.random.SeedSequence(int(rng.integers(2**63)))
         s_source, s_perception, s_driver = root.spawn(3)
         self.n, self.config, self.reward = n, config, reward
         self.dt = config.dt
-        self.source = make_scenario(scenario, n, seed=np.random.default_rng(s_source), dt=self.dt)
+        if source is None:
+            source = make_scenario(scenario, n, seed=np.random.default_rng(s_source), dt=self.dt)
+        self.source = source
         self.perception = Perception(config, n, s_perception)
         self.driver = Driver(n, config.driver, seed=np.random.default_rng(s_driver))
         self.steps = np.zeros(n, dtype=np.int64)
@@ -350,6 +668,12 @@ class CollisionWarningVectorEnv(gym.vector.VectorEnv):
     ) -> None:
         if not isinstance(num_envs, int) or num_envs < 1:
             raise ConfigError(f"num_envs must be a whole number >= 1, got {num_envs!r}")
+        if source == "sumo":
+            raise ConfigError(
+                "the native vector environment runs the scripted source; vectorise the sumo "
+                "source with one simulation per process: gym.make_vec(..., "
+                "vectorization_mode='async', source='sumo')"
+            )
         if render_mode is not None:
             raise ConfigError("the vector environment does not render; use CollisionWarningEnv")
         single = CollisionWarningEnv(source, scenario, config, reward, None, max_episode_steps)
