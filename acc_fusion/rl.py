@@ -373,9 +373,10 @@ def train_ppo(
     observations).  ``ppo_kwargs`` go to :func:`make_ppo`.
 
     ``threads``: torch's intra-op threads during training (restored afterwards; ``None``:
-    leave torch's setting).  One by default: the 64-64 MLP gains nothing from more, and on a
-    loaded 2-core machine torch's two spinning threads made training 15 times slower
-    (130 against 2 000 steps/s with 16 copies, measured).
+    leave torch's setting).  One by default: the 64-64 MLP gains little from more, and the
+    environment's own stepping needs the other core (on a loaded 2-core machine one training
+    ran at 130 steps/s with torch's default threads and later ones at about 2 000 with one;
+    not a controlled comparison).
 
     Returns:
         ``(model, stats)``; ``stats`` holds ``timesteps`` done, ``seconds``, ``steps_per_s``

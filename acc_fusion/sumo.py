@@ -440,6 +440,12 @@ class SumoSource:
             with nullcontext() if cfg.gui else _captured_stderr(captured):
                 api.start(cmd)
         except (*self._errors, OSError) as exc:
+            # libsumo may hold a half-loaded simulation (e.g. a route with an unknown edge
+            # fails after the net loaded): close it, or the process could not start another.
+            try:
+                api.close()
+            except Exception:  # nothing was open
+                pass
             self._cleanup()
             raise SumoError(
                 f"SUMO could not load {str(cfg_path)!r}: {_sumo_message(exc, captured)}"

@@ -109,6 +109,20 @@ def test_net_sumo_rejects_is_a_clear_error(road, tmp_path):
         assert src.n_steps == 10
 
 
+def test_route_error_after_the_net_loaded_leaves_the_process_usable(road, tmp_path):
+    """A route with an unknown edge fails after the net loaded; libsumo is closed again."""
+    (tmp_path / "bad.rou.xml").write_text(
+        '<routes><vehicle id="v" depart="0"><route edges="no_such_edge"/></vehicle></routes>'
+    )
+    cfg = tmp_path / "bad_route.sumocfg"
+    cfg.write_text(sumocfg(str(road / "road.net.xml"), str(tmp_path / "bad.rou.xml")))
+    with pytest.raises(SumoError, match="SUMO could not load .*bad_route.sumocfg"):
+        SumoSource(SumoConfig(str(cfg)))
+    assert not libsumo.simulation.isLoaded()
+    with SumoSource(config(road, end=1.0)) as src:
+        assert src.n_steps == 10
+
+
 # ---------------------------------------------------------------- one simulation each
 def test_frames_shapes_and_gap_geometry(road):
     with SumoSource(config(road, end=40.0, seed=1)) as src:
