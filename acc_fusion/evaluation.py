@@ -20,7 +20,8 @@ Same episodes for every policy
     environment's ``reseeding_restarts``): there only episode 0 is reset with its seed, so every
     policy starts in the same simulation, and the following episodes are the next equipped
     vehicles of that simulation (the same ones while the policies' warnings have not changed
-    the traffic).
+    the traffic).  The ``highway`` source starts a highway-env episode at every reset, so
+    there, as for the scripted source, every episode is reset with its seed.
 
 Judging a step
     ``env.step(action)`` rewards the action against the oracle of the observation it was
@@ -236,6 +237,7 @@ def make_env(
     reward=None,
     max_episode_steps: int = 1200,
     sumo=None,
+    highway=None,
 ):
     """The :class:`~acc_fusion.envs.collision_warning.CollisionWarningEnv` evaluations run in."""
     from acc_fusion.envs.collision_warning import CollisionWarningEnv
@@ -247,6 +249,7 @@ def make_env(
         reward=reward,
         max_episode_steps=max_episode_steps,
         sumo=sumo,
+        highway=highway,
     )
 
 
@@ -265,6 +268,7 @@ def evaluate(
     reward=None,
     max_episode_steps: int = 1200,
     sumo=None,
+    highway=None,
     env=None,
 ) -> Evaluation:
     """Run ``policy`` for ``episodes`` episodes and judge its warnings against the oracle.
@@ -280,12 +284,14 @@ def evaluate(
         tolerance: the matching window of warnings and threats [s] (default 1).
         progress: show a progress bar over the episodes (on a terminal).
         name: the policy's label (default :func:`policy_name`).
-        config, reward, max_episode_steps, sumo: passed to the environment
+        config, reward, max_episode_steps, sumo, highway: passed to the environment
             (:class:`~acc_fusion.fcw.SimConfig`, :class:`~acc_fusion.envs.collision_warning.
             RewardConfig`, step limit, :class:`~acc_fusion.envs.collision_warning.SumoOptions`
-            of the ``sumo`` source).
+            of the ``sumo`` source, :class:`~acc_fusion.envs.collision_warning.HighwayOptions`
+            of the ``highway`` source).
         env: an environment to run in instead of a new one (``source``, ``scenario``,
-            ``config``, ``reward``, ``max_episode_steps`` and ``sumo`` are then ignored); it
+            ``config``, ``reward``, ``max_episode_steps``, ``sumo`` and ``highway`` are then
+            ignored); it
             is not closed, so one environment can serve several evaluations.
 
     >>> from acc_fusion.policies import TTCPolicy
@@ -304,7 +310,7 @@ def evaluate(
     FCWMetrics(1, 1.0, tolerance, warn_level)  # check them before building anything
     own_env = env is None
     if own_env:
-        env = make_env(source, scenario, config, reward, max_episode_steps, sumo)
+        env = make_env(source, scenario, config, reward, max_episode_steps, sumo, highway)
     base = env.unwrapped
     seed_first_only = bool(getattr(base, "reseeding_restarts", False))
     source = getattr(base, "source_name", source)
@@ -412,7 +418,7 @@ def compare_policies(
 ) -> Table:
     """:func:`evaluate` every policy (keys are the labels) on the same episodes; the table of
     :func:`comparison_table`.  ``env_kwargs``: ``config``, ``reward``, ``max_episode_steps``,
-    ``sumo``.
+    ``sumo``, ``highway``.
 
     One environment serves every policy (one after the other).
     """
@@ -666,6 +672,18 @@ def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
     )
     where.add_argument("--sumocfg", metavar="PATH", help="a SUMO configuration for --source sumo")
     p.add_argument(
+        "--highway-env",
+        metavar="ID",
+        help="highway-env environment of --source highway: highway-fast-v0 (default), "
+        "highway-v0, merge-v0",
+    )
+    p.add_argument(
+        "--vehicles",
+        type=int,
+        metavar="N",
+        help="highway-env's vehicles_count of --source highway (default: the environment's)",
+    )
+    p.add_argument(
         "--episodes", type=positive_int, default=100, help="episodes per policy (default 100)"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the episodes (default 0)")
@@ -717,6 +735,22 @@ def _sumo_options(args: argparse.Namespace):
     return SumoOptions(net=args.net, sumocfg=args.sumocfg)
 
 
+def _highway_options(args: argparse.Namespace):
+    """The highway source's options from ``--highway-env`` / ``--vehicles`` (``None``: the
+    defaults)."""
+    given = {"env": args.highway_env, "vehicles_count": args.vehicles}
+    given = {k: v for k, v in given.items() if v is not None}
+    if not given:
+        return None
+    if args.source != "highway":
+        raise ConfigError(
+            f"--highway-env and --vehicles apply to --source highway, not {args.source!r}"
+        )
+    from acc_fusion.envs.collision_warning import HighwayOptions
+
+    return HighwayOptions(**given)
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """``acc-fusion evaluate``: print the comparison table (and write CSV/JSON with ``--out``).
 
@@ -747,6 +781,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         config=_env_config(args.config, args.scenario),
         max_episode_steps=args.max_steps,
         sumo=_sumo_options(args),
+        highway=_highway_options(args),
     )
     table = comparison_table(evaluations)
     print(table.format())

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -33,8 +35,10 @@ OBS_FIELDS = (
     "ego_speed",
     "track_valid",
 ) + tuple(f"{s}_{k}" for s in SENSOR_NAMES for k in ("reporting", "isolated", "nis", "age"))
-#: Truth sources of the environment (``highway`` is not available yet).
+#: Truth sources of the environment.
 SOURCES = ("scripted", "sumo", "highway")
+#: The sources simulated by an external traffic simulator, and their options' classes.
+EXTERNAL_SOURCES = ("sumo", "highway")
 #: Values reported where there is no track: the gap at the radar's maximum range.
 NO_TRACK_GAP = 250.0
 NIS_CLIP, AGE_CLIP = 100.0, 10.0
@@ -157,6 +161,84 @@ class SumoOptions:
             raise ConfigError(f"sumo.{exc}") from None
 
 
+#: highway-env config entries that :class:`HighwayOptions` sets itself or that would give the
+#: environment more than one ego.
+HIGHWAY_RESERVED = ("controlled_vehicles", "duration", "simulation_frequency", "vehicles_count")
+
+
+@dataclass(frozen=True)
+class HighwayOptions:
+    """Settings of the ``highway`` source (validated on construction; SI units).
+
+    The source runs one highway-env environment for the environment's lifetime
+    (:class:`acc_fusion.highway.HighwaySource`); an episode is one highway-env episode whose
+    controlled vehicle is the ego (see :class:`CollisionWarningEnv`).
+
+    Attributes:
+        env: highway-env environment id, one of :data:`acc_fusion.highway.SUPPORTED`;
+            ``"highway-fast-v0"`` (3 lanes, 20 vehicles: about three times cheaper per step
+            than ``highway-v0`` and as rich in threats).
+        duration: seconds per episode [s]; ``None``: the environment's (30 s in
+            ``highway-fast-v0``, 40 s in ``highway-v0``).
+        vehicles_count: highway-env's uncontrolled vehicles; ``None``: the environment's.
+        simulation_frequency: highway-env's simulation frequency [Hz], whose inverse is the
+            environment's step ``dt`` (the sensors need it fine: highway-env's 5 Hz of
+            ``highway-fast-v0`` is too coarse); 15.
+        lookahead: leaders farther than this are not reported [m]; 250.
+        env_config: further highway-env config entries (e.g. ``{"lanes_count": 2}``), checked
+            against the environment's config when the source opens; not the entries of
+            :data:`HIGHWAY_RESERVED`; {}.
+    """
+
+    env: str = "highway-fast-v0"
+    duration: float | None = None
+    vehicles_count: int | None = None
+    simulation_frequency: int = 15
+    lookahead: float = 250.0
+    env_config: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        f = self.simulation_frequency
+        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or not 5 <= f <= 1000:
+            raise ConfigError(
+                f"highway.simulation_frequency must be a whole number in [5, 1000] Hz, got {f!r}"
+            )
+        if isinstance(self.env_config, Mapping):
+            taken = sorted(set(self.env_config) & set(HIGHWAY_RESERVED))
+            if taken:
+                raise ConfigError(
+                    f"highway.env_config must not set {taken[0]!r}: the environment follows "
+                    "one controlled vehicle; use the options' own fields for the others"
+                )
+        cfg = self.highway_config(seed=0)  # the HighwayConfig checks the rest, naming the field
+        object.__setattr__(self, "env_config", cfg.env_config)
+
+    @property
+    def dt(self) -> float:
+        """The environment's step [s]: 1 / ``simulation_frequency``."""
+        return 1.0 / self.simulation_frequency
+
+    def highway_config(self, seed: int):
+        """The :class:`acc_fusion.highway.HighwayConfig` of one episode from ``seed`` with the
+        controlled vehicle as the only pair."""
+        from acc_fusion.highway import HighwayConfig
+
+        try:
+            return HighwayConfig(
+                env=self.env,
+                episodes=1,
+                seed=seed,
+                duration=self.duration,
+                pairs="controlled",
+                vehicles_count=self.vehicles_count,
+                simulation_frequency=int(self.simulation_frequency),
+                lookahead=self.lookahead,
+                env_config=self.env_config,
+            )
+        except ConfigError as exc:
+            raise ConfigError(f"highway.{exc}") from None
+
+
 class CollisionWarningEnv(gym.Env):
     """Decide, every step, which forward-collision warning the driver hears.
 
@@ -166,8 +248,9 @@ class CollisionWarningEnv(gym.Env):
     (``source="scripted"``) one scripted scenario (the randomised suite of
     :mod:`acc_fusion.scenarios`: NHTSA and Euro NCAP test manoeuvres, cut-ins, cut-outs,
     stop-and-go, steady following); with ``source="sumo"`` one equipped vehicle in SUMO
-    traffic (see *The SUMO source*).  A radar (20 Hz) and an infrared camera (10 Hz) measure
-    the lead; their local Kalman filters and the federated fusion center (with fault
+    traffic (see *The SUMO source*); with ``source="highway"`` the controlled vehicle of a
+    highway-env episode (see *The highway source*).  A radar (20 Hz) and an infrared camera
+    (10 Hz) measure the lead; their local Kalman filters and the federated fusion center (with fault
     detection) estimate its motion; the policy sees what the fusion center knows and chooses
     the warning.  The simulated driver reacts to an imminent alert after his reaction time and
     brakes (closed loop).  The oracle, the same warning rule evaluated on ground truth, judges
@@ -204,14 +287,17 @@ class CollisionWarningEnv(gym.Env):
     ## Starting State
 
     Drawn with the environment's random generator ``self.np_random``: the scenario run (the
-    manoeuvre and its parameters) or, for SUMO, the followed vehicle; the sensor noise and
-    the driver.  The same seed gives the same episode.
+    manoeuvre and its parameters) or, for SUMO, the followed vehicle, or, for highway-env,
+    the seed of its episode; the sensor noise and the driver.  The same seed gives the same episode.
 
     ## Episode End
 
     Terminated on a collision or when the scenario's run ends (the ego stopped, the threat
     passed, or its duration ran out; SUMO: the ego left the network); truncated after
     ``max_episode_steps`` steps, and for SUMO when the simulation reaches its end or fails.
+    highway: terminated when highway-env terminates its episode (the controlled vehicle
+    crashed, into its leader or otherwise; ``merge-v0``: the merge passed), truncated when its
+    ``duration`` is reached.
 
     ## The SUMO source
 
@@ -235,21 +321,39 @@ class CollisionWarningEnv(gym.Env):
     holds one simulation per process, so a second SUMO environment in the same process fails
     at its first reset with a :class:`~acc_fusion.sumo.SumoError`.
 
+    ## The highway source
+
+    ``source="highway"`` runs one highway-env environment
+    (:class:`acc_fusion.highway.HighwaySource`) for the environment's lifetime, set by
+    ``highway`` (:class:`HighwayOptions`: the highway-env id, default ``highway-fast-v0``, the
+    episode duration, the traffic density, the simulation frequency).  Every ``reset()``
+    starts a new highway-env episode, reset with a seed drawn from ``self.np_random`` (so
+    ``reset(seed=s)`` repeats an episode and every reset may be seeded); no highway-env
+    environment is built after the first.  The ego is the controlled vehicle, stepped at
+    highway-env's simulation frequency (15 Hz: the environment's ``dt`` is 1/15 s, replacing
+    ``config.dt``); it holds its lane and speed whatever is ahead (an inattentive driver) until
+    the simulated driver brakes for an imminent alert.  Needs highway-env
+    (``pip install 'acc_fusion[highway]'``).
+
     ## Arguments
 
-    ``source`` (``"scripted"`` or ``"sumo"``; ``"highway"`` is not available yet),
+    ``source`` (``"scripted"``, ``"sumo"`` or ``"highway"``),
     ``scenario`` (a name of :data:`acc_fusion.scenarios.SCENARIOS`; scripted source only),
     ``config`` (:class:`acc_fusion.fcw.SimConfig`: sensors, fusion, warning model, driver, and
-    the step ``dt``, which SUMO then runs at), ``reward`` (:class:`RewardConfig`),
-    ``render_mode`` (``None`` or ``"rgb_array"``), ``max_episode_steps``, ``sumo``
-    (:class:`SumoOptions` or a mapping of its fields; sumo source only).
+    the step ``dt``, which SUMO then runs at; highway-env sets its own), ``reward``
+    (:class:`RewardConfig`), ``render_mode`` (``None`` or ``"rgb_array"``),
+    ``max_episode_steps``, ``sumo`` (:class:`SumoOptions` or a mapping of its fields; sumo
+    source only), ``highway`` (:class:`HighwayOptions` or a mapping of its fields; highway
+    source only).
 
     ## Vectorized environment
 
     The scripted source has a native vector environment, :class:`CollisionWarningVectorEnv`
     (``gym.make_vec(..., vectorization_mode="vector_entry_point")``).  The SUMO source
     vectorises with one simulation per process: ``gym.make_vec(...,
-    vectorization_mode="async", source="sumo", vector_kwargs={"context": "spawn"})``.
+    vectorization_mode="async", source="sumo", vector_kwargs={"context": "spawn"})``.  The
+    highway source vectorises with one highway-env environment per copy:
+    ``gym.make_vec(..., vectorization_mode="sync", source="highway")`` (or ``"async"``).
 
     ## Example
 
@@ -271,13 +375,9 @@ class CollisionWarningEnv(gym.Env):
         render_mode: str | None = None,
         max_episode_steps: int = 1200,
         sumo: SumoOptions | dict | None = None,
+        highway: HighwayOptions | dict | None = None,
     ) -> None:
         check_choice("source", source, SOURCES)
-        if source == "highway":
-            raise ConfigError(
-                "source 'highway' is not available yet: the environment runs the 'scripted' "
-                "and 'sumo' sources (the highway-env sources are open work)"
-            )
         check_choice("scenario", scenario, tuple(SCENARIOS))
         if render_mode is not None:
             check_choice("render_mode", render_mode, tuple(self.metadata["render_modes"]))
@@ -285,23 +385,30 @@ class CollisionWarningEnv(gym.Env):
             raise ConfigError(
                 f"max_episode_steps must be a whole number >= 1, got {max_episode_steps!r}"
             )
-        self._traffic: _SumoTraffic | None = None
-        if source == "sumo":
+        self._traffic: _SumoTraffic | _HighwayTraffic | None = None
+        given = {"sumo": sumo, "highway": highway}
+        for name, value in given.items():
+            if value is not None and name != source:
+                raise ConfigError(f"{name} options apply to source {name!r}, not {source!r}")
+        if source in EXTERNAL_SOURCES:
             if scenario != "random":
+                hint = {
+                    "sumo": "its network (sumo={'net': ...})",
+                    "highway": "highway-env (highway={'env': ...})",
+                }[source]
                 raise ConfigError(
-                    f"scenario {scenario!r} applies to the scripted source; the sumo source's "
-                    "traffic comes from its network (sumo={'net': ...})"
+                    f"scenario {scenario!r} applies to the scripted source; the {source} "
+                    f"source's traffic comes from {hint}"
                 )
             self.config = config or SimConfig(runs=1, methods=("federated",))
-            self._traffic = _SumoTraffic(_sumo_options(sumo), self.config.dt)
-            scenario = self._traffic.options.name
-        elif sumo is not None:
-            raise ConfigError(f"sumo options apply to source 'sumo', not {source!r}")
+            self._traffic = _open_traffic(source, given[source], self.config)
+            self.config = self._traffic.config
+            scenario = self._traffic.name
         else:
             self.config = config or SimConfig(scenario=scenario, runs=1, methods=("federated",))
         self.source_name, self.scenario = source, scenario
         #: Whether ``reset(seed=...)`` restarts a long-running simulation (the sumo source).
-        self.reseeding_restarts = self._traffic is not None
+        self.reseeding_restarts = bool(getattr(self._traffic, "reseeding_restarts", False))
         self.reward_config = reward or RewardConfig()
         self.render_mode = render_mode
         self.max_episode_steps = max_episode_steps
@@ -345,9 +452,11 @@ class CollisionWarningEnv(gym.Env):
             obs, info = core.observe(np.zeros(1, dtype=bool))
             return obs[0], 0.0, False, True, {**_single(info), "sumo_error": str(exc)}
         terminated = core.collided | core.ended
-        truncated = ~terminated & (core.steps >= self.max_episode_steps)
-        if self._traffic is not None:
-            truncated |= ~terminated & self._traffic.sim.done
+        truncated = core.steps >= self.max_episode_steps
+        if self._traffic is not None:  # the external source's own end of the episode
+            terminated |= core.source.terminated
+            truncated |= core.source.truncated
+        truncated &= ~terminated
         obs, info = core.observe(core.collided)
         return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), _single(info)
 
@@ -366,7 +475,12 @@ class CollisionWarningEnv(gym.Env):
     @property
     def sumo_starts(self) -> int:
         """SUMO simulations started so far (sumo source; 0 otherwise)."""
-        return self._traffic.starts if self._traffic is not None else 0
+        return self._traffic.starts if self.source_name == "sumo" else 0
+
+    @property
+    def highway_episodes(self) -> int:
+        """highway-env episodes started so far (highway source; 0 otherwise)."""
+        return self._traffic.starts if self.source_name == "highway" else 0
 
     def close(self):
         if self._traffic is not None:
@@ -374,38 +488,81 @@ class CollisionWarningEnv(gym.Env):
         super().close()
 
 
-def _sumo_options(sumo: SumoOptions | dict | None) -> SumoOptions:
-    """``sumo`` as :class:`SumoOptions`; libsumo must be installed."""
-    import importlib.util
-
+def _open_traffic(source: str, options, config: SimConfig) -> _SumoTraffic | _HighwayTraffic:
+    """The external traffic of ``source`` (one of :data:`EXTERNAL_SOURCES`) from its
+    ``options`` (the options' class, a mapping of its fields, or ``None``: the defaults) and
+    the environment's ``config``; the simulator must be installed."""
     from acc_fusion.config import from_mapping
 
-    if importlib.util.find_spec("libsumo") is None:
+    traffic = {"sumo": _SumoTraffic, "highway": _HighwayTraffic}[source]
+    traffic.check_installed()
+    cls = traffic.OPTIONS
+    if options is None:
+        options = cls()
+    elif isinstance(options, Mapping):
+        options = from_mapping(cls, options, prefix=f"{source}.")
+    elif not isinstance(options, cls):
         raise ConfigError(
-            "source 'sumo' needs eclipse-sumo and libsumo: pip install 'acc_fusion[sumo]'"
+            f"{source} must be {cls.__name__} or a mapping, got {type(options).__name__}"
         )
-    if sumo is None or isinstance(sumo, SumoOptions):
-        return sumo or SumoOptions()
-    if not isinstance(sumo, dict):
-        raise ConfigError(f"sumo must be SumoOptions or a mapping, got {type(sumo).__name__}")
-    return from_mapping(SumoOptions, sumo, prefix="sumo.")
+    return traffic(options, config)
 
 
-class _SumoEpisode:
-    """One equipped vehicle of a running :class:`~acc_fusion.sumo.SumoSource` as the truth
-    source of one pair, with the interface :class:`_Core` drives (``frame``, ``advance``,
-    ``active``, ``collided``); time counts from the episode's start.
+class _SlotView:
+    """One slot of an external truth source of many pairs as the truth source of one pair,
+    with the interface :class:`_Core` drives (``frame``, ``advance``, ``active``,
+    ``collided``); time counts from the episode's start.  ``terminated`` / ``truncated``: the
+    source ended the episode at this step (besides a collision or the ego leaving)."""
+
+    terminated = truncated = False
+
+    def __init__(self, sim, slot: int) -> None:
+        self.sim, self.slot = sim, slot
+        self.steps = 0
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(1,)``: the slot's vehicle still drives."""
+        return self.sim.active[self.slot : self.slot + 1]
+
+    @property
+    def collided(self) -> np.ndarray:
+        """``(1,)``: the ego ran into its leader (or another vehicle)."""
+        return self.sim.collided[self.slot : self.slot + 1]
+
+    def frame(self) -> TruthFrame:
+        f, k = self.sim.frame(), slice(self.slot, self.slot + 1)
+        return TruthFrame(
+            t=self.steps * self.sim.dt,  # not f.t - t0: exact whatever the source's clock
+            ego_speed=f.ego_speed[k],
+            ego_accel=f.ego_accel[k],
+            gap=f.gap[k],
+            lead_speed=f.lead_speed[k],
+            lead_accel=f.lead_accel[k],
+            leader_id=f.leader_id[k],
+            lateral_offset=f.lateral_offset[k],
+        )
+
+    def advance(self, ego_brake: np.ndarray | None = None) -> None:
+        """One step of the source with the ego driver's brake request ``(1,)`` [m/s²]."""
+        brake = np.zeros(self.sim.n_pairs)
+        brake[self.slot] = 0.0 if ego_brake is None else ego_brake[0]
+        self.sim.advance(brake)
+        self.steps += 1
+
+
+class _SumoEpisode(_SlotView):
+    """One equipped vehicle of a running :class:`~acc_fusion.sumo.SumoSource` (a
+    :class:`_SlotView`); truncated when the simulation reaches its end.
 
     ``hazard_step``: the step after which the ego's leader starts an emergency braking
     (``None``: none).
     """
 
     def __init__(self, sim, slot: int, hazard_step: int | None) -> None:
-        self.sim, self.slot, self.hazard_step = sim, slot, hazard_step
+        super().__init__(sim, slot)
+        self.hazard_step = hazard_step
         self.vehicle_id = sim.vehicle_ids[slot]
-        self.t0 = sim.t
-        self.steps = 0
-        self._brake = np.zeros(sim.n_pairs)
 
     @property
     def active(self) -> np.ndarray:
@@ -413,21 +570,8 @@ class _SumoEpisode:
         return np.array([self.sim.slot_of(self.vehicle_id) == self.slot])
 
     @property
-    def collided(self) -> np.ndarray:
-        """``(1,)``: the ego ran into another vehicle (its slot keeps the flag for a step)."""
-        return self.sim.collided[self.slot : self.slot + 1]
-
-    def frame(self) -> TruthFrame:
-        f, k = self.sim.frame(), slice(self.slot, self.slot + 1)
-        return TruthFrame(
-            t=f.t - self.t0,
-            ego_speed=f.ego_speed[k],
-            ego_accel=f.ego_accel[k],
-            gap=f.gap[k],
-            lead_speed=f.lead_speed[k],
-            lead_accel=f.lead_accel[k],
-            leader_id=f.leader_id[k],
-        )
+    def truncated(self) -> bool:
+        return self.sim.done
 
     def advance(self, ego_brake: np.ndarray | None = None) -> None:
         """One SUMO step with the ego driver's brake request ``(1,)`` [m/s²]."""
@@ -435,9 +579,57 @@ class _SumoEpisode:
             leader = self.sim.leader_of(self.vehicle_id)
             if leader is not None:
                 self.sim.inject_hazard(leader)
-        self._brake[self.slot] = 0.0 if ego_brake is None else ego_brake[0]
-        self.sim.advance(self._brake)
-        self.steps += 1
+        super().advance(ego_brake)
+
+
+class _HighwayEpisode(_SlotView):
+    """The controlled vehicle of a :class:`~acc_fusion.highway.HighwaySource` episode (a
+    :class:`_SlotView`); highway-env ends the episode (a crash, the merge passed: terminated;
+    its duration reached: truncated)."""
+
+    def __init__(self, sim) -> None:
+        super().__init__(sim, 0)
+
+    @property
+    def terminated(self) -> bool:
+        return self.sim.terminated
+
+    @property
+    def truncated(self) -> bool:
+        return self.sim.truncated
+
+
+class _HighwayTraffic:
+    """The highway source's simulation: one :class:`~acc_fusion.highway.HighwaySource` (one
+    highway-env environment) for the environment's lifetime, whose every reset starts a new
+    highway-env episode from a seed drawn from the environment's generator."""
+
+    OPTIONS = HighwayOptions
+    #: A reset without a seed restarts highway-env too, so every episode can be seeded.
+    reseeding_restarts = False
+
+    @staticmethod
+    def check_installed() -> None:
+        from acc_fusion.highway import load_highway_env
+
+        load_highway_env()
+
+    def __init__(self, options: HighwayOptions, config: SimConfig) -> None:
+        from acc_fusion.highway import HighwaySource
+
+        self.options, self.name = options, options.env
+        self.config = replace(config, dt=options.dt)  # the sensors run at highway-env's step
+        self.sim = HighwaySource(options.highway_config(seed=0))
+        self.starts = 0  # highway-env episodes started so far
+
+    def next_episode(self, rng: np.random.Generator, restart: bool) -> _HighwayEpisode:
+        """A new highway-env episode reset with a seed drawn from ``rng``."""
+        self.sim.restart(np.ones(self.sim.n_pairs, dtype=bool), rng)
+        self.starts += 1
+        return _HighwayEpisode(self.sim)
+
+    def close(self) -> None:
+        self.sim.close()
 
 
 class _SumoTraffic:
@@ -445,11 +637,24 @@ class _SumoTraffic:
     environment's lifetime, started lazily (the first ``reset``), restarted only when it
     ends, fails, or a seeded reset asks for it."""
 
+    OPTIONS = SumoOptions
+    #: A seeded reset restarts the long-running simulation (seed the first reset only).
+    reseeding_restarts = True
     #: Attempts at (re)starting SUMO and finding an ego before a reset gives up.
     ATTEMPTS = 3
 
-    def __init__(self, options: SumoOptions, dt: float) -> None:
-        self.options, self.dt = options, dt
+    @staticmethod
+    def check_installed() -> None:
+        import importlib.util
+
+        if importlib.util.find_spec("libsumo") is None:
+            raise ConfigError(
+                "source 'sumo' needs eclipse-sumo and libsumo: pip install 'acc_fusion[sumo]'"
+            )
+
+    def __init__(self, options: SumoOptions, config: SimConfig) -> None:
+        self.options, self.name = options, options.name
+        self.config, self.dt = config, config.dt  # SUMO runs at the environment's step
         self.sim = None
         self.starts = 0  # simulations started so far
         self._followed: set[str] = set()
@@ -527,7 +732,7 @@ class _Core:
     Each copy is one run of the scenario: truth source, sensors, ego-motion filter, the
     federated fusion center, the oracle and the driver, all over arrays of ``n`` pairs.
     ``source`` replaces the scripted scenario by another truth source of ``n`` pairs (the
-    SUMO episode).
+    SUMO or highway-env episode, a :class:`_SlotView`).
     """
 
     def __init__(self, n, scenario, config, reward, rng: np.random.Generator, source=None):
@@ -673,6 +878,12 @@ class CollisionWarningVectorEnv(gym.vector.VectorEnv):
                 "the native vector environment runs the scripted source; vectorise the sumo "
                 "source with one simulation per process: gym.make_vec(..., "
                 "vectorization_mode='async', source='sumo')"
+            )
+        if source == "highway":
+            raise ConfigError(
+                "the native vector environment runs the scripted source; vectorise the highway "
+                "source with one highway-env environment per copy: gym.make_vec(..., "
+                "vectorization_mode='sync' or 'async', source='highway')"
             )
         if render_mode is not None:
             raise ConfigError("the vector environment does not render; use CollisionWarningEnv")

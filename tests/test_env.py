@@ -76,8 +76,8 @@ def test_bad_input_is_a_clear_error():
         env.step(3)
     with pytest.raises(ConfigError, match="source must be one of"):
         CollisionWarningEnv(source="carla")
-    with pytest.raises(ConfigError, match="highway-env sources are open work"):
-        CollisionWarningEnv(source="highway")
+    with pytest.raises(ConfigError, match="highway options apply to source 'highway'"):
+        CollisionWarningEnv(highway={"env": "highway-v0"})
     with pytest.raises(ConfigError, match="scenario must be one of"):
         CollisionWarningEnv(scenario="moon")
 

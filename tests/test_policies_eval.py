@@ -235,8 +235,8 @@ def test_bad_policies_and_arguments_are_clear_errors():
         evaluate(NeverWarn(), episodes=0)
     with pytest.raises(ConfigError, match="warn_level"):
         evaluate(NeverWarn(), episodes=1, warn_level=3)
-    with pytest.raises(ConfigError, match="highway"):
-        evaluate(NeverWarn(), source="highway", episodes=1)
+    with pytest.raises(ConfigError, match="highway options apply to source 'highway'"):
+        evaluate(NeverWarn(), highway={"env": "highway-v0"}, episodes=1)
 
 
 # ------------------------------------------------------------------------------ load_policy
@@ -330,7 +330,7 @@ def test_evaluate_command_prints_the_table_and_writes_files(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--source", "highway", "--baselines"], "highway"),
+        (["--highway-env", "highway-v0", "--baselines"], "apply to --source highway"),
         (["--episodes", "1"], "give a policy to evaluate"),
         (["--policy", "nope"], "--policy must be MODULE:CALLABLE"),
     ],
