@@ -65,8 +65,16 @@ class FilterBank(ABC):
         """
 
     @abstractmethod
-    def assign(self, j: int, mask: np.ndarray, x: np.ndarray, p: np.ndarray) -> None:
-        """Set filter ``j`` of the pairs in ``mask (N,)`` to ``x (N, dim)``, ``p (N, dim, dim)``."""
+    def assign(
+        self,
+        j: int,
+        mask: np.ndarray,
+        x: np.ndarray,
+        p: np.ndarray,
+        p_scale: np.ndarray | None = None,
+    ) -> None:
+        """Set filter ``j`` of the pairs in ``mask (N,)`` to ``x (N, dim)`` and ``p (N, dim,
+        dim)``, times ``p_scale (N,)`` when given."""
 
 
 class BatchedBank(FilterBank):
@@ -95,9 +103,9 @@ class BatchedBank(FilterBank):
             np.ascontiguousarray(q, dtype=float),
             np.ascontiguousarray(np.broadcast_to(q_scale, (k, n)), dtype=float).reshape(-1),
             mask.reshape(-1),
+            np.zeros(d) if u is None else np.ascontiguousarray(b, dtype=float),
+            _NO_INPUT if u is None else np.ascontiguousarray(u, dtype=float),
         )
-        if u is not None:
-            self._x += np.where(mask[..., None], b * u[None, :, None], 0.0)
 
     def update(self, j, z, r, h, rows):
         nis = np.empty(self.n_pairs)
@@ -112,13 +120,13 @@ class BatchedBank(FilterBank):
         )
         return nis
 
-    def assign(self, j, mask, x, p):
-        if mask.all():
-            self._x[j] = x
-            self._p[j] = p
-        elif mask.any():
-            np.copyto(self._x[j], x, where=mask[:, None])
-            np.copyto(self._p[j], p, where=mask[:, None, None])
+    def assign(self, j, mask, x, p, p_scale=None):
+        scale = np.ones(self.n_pairs) if p_scale is None else p_scale
+        args = ((mask, bool), (x, float), (p, float), (scale, float))
+        kalman.assign(self._x[j], self._p[j], *(np.ascontiguousarray(a, t) for a, t in args))
+
+
+_NO_INPUT = np.zeros(1)
 
 
 class FilterpyBank(FilterBank):
@@ -160,11 +168,11 @@ class FilterpyBank(FilterBank):
             nis[k] = kf.mahalanobis**2  # filterpy's mahalanobis is sqrt(NIS)
         return nis
 
-    def assign(self, j, mask, x, p):
+    def assign(self, j, mask, x, p, p_scale=None):
         for k in np.flatnonzero(mask):
             kf = self._kf[j][k]
             kf.x = np.array(x[k], dtype=float)
-            kf.P = np.array(p[k], dtype=float)
+            kf.P = np.array(p[k] if p_scale is None else p[k] * p_scale[k], dtype=float)
 
 
 class Engine:

@@ -31,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.stats import chi2
 
 from acc_fusion.errors import ConfigError
@@ -108,31 +109,75 @@ class WindowedChiSquare:
         sensors that passed a full window while isolated and rejoin now.  ``self.isolated``
         holds the isolation state after this step.
         """
-        passed = reported & (nis <= self.gate)
-        healthy = reported & ~self.isolated
-        # Each sensor's latest gate verdict (1 pass, 2 fail) and its age in steps.
-        self._verdict = np.where(reported, np.where(passed, 1, 2), self._verdict)
-        self._age = np.where(reported, 0, self._age + 1)
-        recent = ~self.isolated & (self._verdict > 0) & (self._age <= self.config.common_steps)
-        # Common cause: two or more healthy sensors have a recent verdict and all failed.
-        common = (recent.sum(axis=1) >= 2) & ~(recent & (self._verdict == 1)).any(axis=1)
-        accepted = healthy & (passed | common[:, None])
-        record = reported & ~common[:, None]
+        accepted = np.empty_like(self.isolated)
+        rejoined = np.empty_like(self.isolated)
+        _window_step(
+            np.ascontiguousarray(nis, dtype=float), np.ascontiguousarray(reported, dtype=bool),
+            self.gate, self.clip, self.threshold, int(self.config.common_steps), self._buf,
+            self._sum, self._count, self._pos, self.isolated, self._verdict, self._age,
+            accepted, rejoined,
+        )  # fmt: skip
+        return accepted, rejoined
 
-        w = self._buf.shape[2]
-        slot = self._pos[..., None]
-        old = np.take_along_axis(self._buf, slot, axis=2)[..., 0]
-        value = np.where(record, np.minimum(nis, self.clip), old)
-        np.put_along_axis(self._buf, slot, value[..., None], axis=2)
-        self._sum += value - old
-        self._pos = np.where(record, (self._pos + 1) % w, self._pos)
-        self._count = np.where(record, np.minimum(self._count + 1, w), self._count)
 
-        full = self._count == w
-        fail = full & (self._sum > self.threshold)
-        newly = fail & ~self.isolated
-        rejoined = full & ~fail & self.isolated
-        self.isolated |= newly
-        self.isolated &= ~rejoined
-        self._clear(newly | rejoined)
-        return accepted & ~newly, rejoined
+@njit(cache=True)
+def _window_step(
+    nis,
+    reported,
+    gate,
+    clip,
+    threshold,
+    common_steps,
+    buf,
+    total,
+    count,
+    pos,
+    isolated,
+    verdict,
+    age,
+    accepted,
+    rejoined,
+):  # pragma: no cover - compiled
+    """:meth:`WindowedChiSquare.step` for every pair, in place (rules in the module docstring).
+
+    Per pair and sensor: the gate verdict (1 pass, 2 fail) and its age; the common-cause test
+    over the pair's sensors; the clipped NIS into the window ring; the window test.
+    """
+    n_pairs, n_sensors, w = buf.shape
+    for i in range(n_pairs):
+        n_recent = 0
+        any_pass = False
+        for s in range(n_sensors):
+            if reported[i, s]:
+                verdict[i, s] = 1 if nis[i, s] <= gate else 2
+                age[i, s] = 0
+            else:
+                age[i, s] += 1
+            if not isolated[i, s] and verdict[i, s] > 0 and age[i, s] <= common_steps:
+                n_recent += 1
+                any_pass = any_pass or verdict[i, s] == 1
+        common = n_recent >= 2 and not any_pass
+        for s in range(n_sensors):
+            rep = reported[i, s]
+            accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or common)
+            rejoined[i, s] = False
+            if rep and not common:
+                k = pos[i, s]
+                old = buf[i, s, k]
+                value = clip if nis[i, s] > clip else nis[i, s]
+                buf[i, s, k] = value
+                total[i, s] += value - old
+                pos[i, s] = (k + 1) % w
+                count[i, s] = min(count[i, s] + 1, w)
+            if count[i, s] == w:
+                fail = total[i, s] > threshold
+                if fail != isolated[i, s]:  # newly isolated, or rejoining
+                    if fail:
+                        accepted[i, s] = False
+                    else:
+                        rejoined[i, s] = True
+                    isolated[i, s] = fail
+                    buf[i, s, :] = 0.0
+                    total[i, s] = 0.0
+                    count[i, s] = 0
+                    pos[i, s] = 0

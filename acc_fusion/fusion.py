@@ -301,29 +301,38 @@ class Estimator(ABC):
             raise InputError(
                 f"target_id must be an integer array of shape ({n},), got {target_id.shape}"
             )
-        z = np.empty((s, n, 2))
-        r = np.empty((s, n, 2, 2))
-        valid = np.empty((s, n), dtype=bool)
         for i, m in enumerate(measurements):
-            name = f"measurements[{i}] ({self.sensors[i]})"
             if np.shape(m.z) != (n, 2) or np.shape(m.r) != (n, 2, 2) or np.shape(m.valid) != (n,):
                 raise InputError(
-                    f"{name} must have z (N, 2), r (N, 2, 2), valid (N,) with N = {n}, got "
-                    f"{np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
+                    f"{self._name(i)} must have z (N, 2), r (N, 2, 2), valid (N,) with N = {n}, "
+                    f"got {np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
                 )
-            v = np.asarray(m.valid, dtype=bool)
-            zi = np.where(v[:, None], m.z, 0.0)
-            ri = np.where(v[:, None, None], m.r, np.eye(2))
-            if not (np.isfinite(zi).all() and np.isfinite(ri).all()):
-                raise InputError(f"{name} has NaN or inf in a valid measurement or its covariance")
-            if (zi[:, 0] < 0).any():
-                raise InputError(
-                    f"{name} has a negative range ({zi[:, 0].min():g} m); ranges must be >= 0"
-                )
-            if (ri[:, 0, 0] <= 0).any() or (ri[:, 1, 1] <= 0).any():
-                raise InputError(f"{name} has a non-positive measurement variance; it must be > 0")
-            z[i], r[i], valid[i] = zi, ri, v
+        valid = np.array([m.valid for m in measurements], dtype=bool)
+        z = np.where(valid[..., None], [m.z for m in measurements], 0.0)
+        r = np.where(valid[..., None, None], [m.r for m in measurements], np.eye(2))
+        finite = np.isfinite(z).all(axis=(1, 2)) & np.isfinite(r).all(axis=(1, 2, 3))
+        if not finite.all():
+            raise InputError(
+                f"{self._name(np.argmin(finite))} has NaN or inf in a valid measurement or its "
+                "covariance"
+            )
+        low = z[:, :, 0].min(axis=1)
+        if (low < 0).any():
+            i = int(np.argmin(low))
+            raise InputError(
+                f"{self._name(i)} has a negative range ({low[i]:g} m); ranges must be >= 0"
+            )
+        positive = ((r[:, :, 0, 0] > 0) & (r[:, :, 1, 1] > 0)).all(axis=1)
+        if not positive.all():
+            raise InputError(
+                f"{self._name(np.argmin(positive))} has a non-positive measurement variance; it "
+                "must be > 0"
+            )
         return z, r, valid, target_id.astype(np.int64)
+
+    def _name(self, i: int) -> str:
+        """How an error names measurement ``i``."""
+        return f"measurements[{int(i)}] ({self.sensors[int(i)]})"
 
     def _initial(self, z, r, valid):
         """Initial states from the first reporting sensor of each uninitialised pair.
@@ -534,7 +543,7 @@ class FederatedFilter(Estimator):
             self.master.assign(0, init, x0, p0)
             infl = self._inflation()
             for s in s_all:
-                self.locals.assign(s, init, x0, p0 * infl[s][:, None, None])
+                self.locals.assign(s, init, x0, p0, infl[s])
             ini = self.initialised = ini | init
 
         reporting = ini[None] & valid & ~consumed
@@ -565,13 +574,13 @@ class FederatedFilter(Estimator):
                 self._share(active)
                 infl = self._inflation()
                 for s in s_all:
-                    self.locals.assign(s, active[s], xf, pf * infl[s][:, None, None])
+                    self.locals.assign(s, active[s], xf, pf, infl[s])
         if rejoined.any():
             self._share(active)
             infl = self._inflation()
             xm, pm = self.master.x[0], self.master.p[0]
             for s in s_all:
-                self.locals.assign(s, rejoined[s] & ini, xm, pm * infl[s][:, None, None])
+                self.locals.assign(s, rejoined[s] & ini, xm, pm, infl[s])
         self._online_at[self._online] = self._t
         self._seen |= accepted | consumed
         self._reported_at[reporting | consumed] = self._t

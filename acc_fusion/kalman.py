@@ -121,10 +121,13 @@ def _active_rows(rows, k, idx):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def predict(x, p, f, q, q_scale, mask):  # pragma: no cover - compiled
-    r"""Time update in place: :math:`x \leftarrow F x`, :math:`P \leftarrow F P F^\top + s Q`.
+def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
+    r"""Time update in place: :math:`x \leftarrow F x + b\,u`, :math:`P \leftarrow F P F^\top
+    + s Q`.
 
-    Shapes: ``x (N, n)``, ``p (N, n, n)``, ``f, q (n, n)``, ``q_scale (N,)``, ``mask (N,)``.
+    Shapes: ``x (N, n)``, ``p (N, n, n)``, ``f, q (n, n)``, ``q_scale (N,)``, ``mask (N,)``,
+    ``b (n,)``; the known input ``u (M,)`` with N a multiple of M: row k uses ``u[k % M]``
+    (K banks of M pairs share the pairs' inputs).
     """
     n_pairs, n = x.shape
     xt = np.empty(n)
@@ -132,11 +135,12 @@ def predict(x, p, f, q, q_scale, mask):  # pragma: no cover - compiled
     for k in range(n_pairs):
         if not mask[k]:
             continue
+        uk = u[k % u.size]
         for i in range(n):
             s = 0.0
             for j in range(n):
                 s += f[i, j] * x[k, j]
-            xt[i] = s
+            xt[i] = s + b[i] * uk
         for i in range(n):
             x[k, i] = xt[i]
             for j in range(n):
@@ -150,6 +154,20 @@ def predict(x, p, f, q, q_scale, mask):  # pragma: no cover - compiled
                 for m in range(n):
                     s += fp[i, m] * f[j, m]
                 p[k, i, j] = s + q_scale[k] * q[i, j]
+
+
+@njit(cache=True)
+def assign(x, p, mask, x_new, p_new, p_scale):  # pragma: no cover - compiled
+    r"""Set the filters in ``mask (N,)`` in place: :math:`x = x_{new}`, :math:`P = s\,P_{new}`
+    with the per-pair scale ``p_scale (N,)``."""
+    n_pairs, n = x.shape
+    for k in range(n_pairs):
+        if not mask[k]:
+            continue
+        for i in range(n):
+            x[k, i] = x_new[k, i]
+            for j in range(n):
+                p[k, i, j] = p_new[k, i, j] * p_scale[k]
 
 
 @njit(cache=True)
@@ -320,7 +338,8 @@ def warmup() -> None:
     x, p = np.zeros((1, 3)), np.eye(3)[None].copy()
     z, r, h = np.zeros((1, 2)), np.eye(2)[None].copy(), np.eye(3)[:2].copy()
     rows, out = np.ones((1, 2), dtype=bool), np.empty(1)
-    predict(x, p, np.eye(3), np.eye(3), np.ones(1), np.ones(1, dtype=bool))
+    predict(x, p, np.eye(3), np.eye(3), np.ones(1), np.ones(1, dtype=bool), z[0, :1], z[0, :1])
     update(x, p, z, r, h, rows, out)
+    assign(x, p, rows[:, 0], x.copy(), p.copy(), np.ones(1))
     innovation_nis(x, p, z, r, h, rows, out)
     fuse(x[None], p[None], np.ones((1, 1), dtype=bool), x, p, True, x.copy(), p.copy())

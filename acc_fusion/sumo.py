@@ -124,6 +124,8 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
+from itertools import repeat
+from operator import itemgetter
 from pathlib import Path
 from typing import Any
 
@@ -493,7 +495,7 @@ class SumoSource:
         # subscription read per step instead of a socket round trip per value.
         self._subscribed = bool(cfg.gui)
         self._get_speed = _raw(api, "vehicle_getSpeed", api.vehicle.getSpeed)
-        self._get_leader = _raw(api, "vehicle_getLeader", api.vehicle.getLeader)
+        self._get_leader = _raw(api, "vehicle_getLeader", None) or _public_leader(api)
         dist = float(cfg.lookahead)
         self._leader_param = {tc.VAR_LEADER: ("d", dist)}  # TraCI's typed parameter
         sim = api.simulation
@@ -965,10 +967,9 @@ class SumoSource:
                 ego_a[slots] = [r[ac] for r in rows]
                 leaders = [r[ld] or _NO_LEADER for r in rows]  # TraCI: None without
             else:
-                get_speed, get_leader = self._get_speed, self._get_leader
-                dist = self.config.lookahead
-                ego_v[slots] = [get_speed(v) for v in vids]
-                leaders = [get_leader(v, dist) or _NO_LEADER for v in vids]
+                m = len(vids)  # map over C functions: no Python frame per vehicle
+                ego_v[slots] = np.fromiter(map(self._get_speed, vids), float, m)
+                leaders = list(map(self._get_leader, vids, repeat(self.config.lookahead)))
                 # SUMO's acceleration is (v(t) - v(t - dt)) / dt exactly: only vehicles new
                 # to their slot need the getter.
                 prev = self._prev_speed[slots]
@@ -976,11 +977,11 @@ class SumoSource:
                 new = slots[np.isnan(prev)]
                 ego_a[new] = [veh.getAcceleration(self._slot_vid[i]) for i in new]
             self._prev_speed = ego_v.copy()
-            names = [name for name, _ in leaders]
-            info, slot_of = self._info, self._slot_of
-            lint = np.array([info.get(x, _NO_INFO)[0] for x in names], dtype=np.int64)
-            lslot = np.array([slot_of.get(x, -1) for x in names], dtype=np.intp)
-            g = np.array([d for _, d in leaders]) + self._min_gap[slots]
+            names, dists = zip(*leaders, strict=True)
+            info = map(self._info.get, names, repeat(_NO_INFO))
+            lint = np.fromiter(map(itemgetter(0), info), np.int64, len(names))
+            lslot = np.fromiter(map(self._slot_of.get, names, repeat(-1)), np.intp, len(names))
+            g = np.array(dists) + self._min_gap[slots]
             has = (lint >= 0) & (g <= self.config.lookahead)
             leader[slots[has]] = lint[has]
             gap[slots[has]] = g[has]
@@ -1017,6 +1018,12 @@ def _raw(api: Any, name: str, public: Any) -> Any:
     without a leader where the wrapper returns ``None``."""
     module = getattr(getattr(api, "libsumo", None), "_libsumo", None)
     return getattr(module, name, None) or public
+
+
+def _public_leader(api: Any) -> Any:
+    """The public ``getLeader``, returning :data:`_NO_LEADER` instead of ``None`` as the raw one."""
+    get = api.vehicle.getLeader
+    return lambda vid, dist: get(vid, dist) or _NO_LEADER
 
 
 _NO_LEADER = ("", -1.0)

@@ -37,6 +37,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
@@ -177,17 +178,45 @@ class WarningLogic:
         d = np.stack(safety_distances(cfg.model, np.maximum(v, 0.0), rel, acc, cfg.params))
         lower = np.where(ok, g - cfg.z * sigma, np.inf)
 
-        cond = lower < d
-        self._count += cond.astype(np.int64) - self._history[:, :, self._slot]
-        self._history[:, :, self._slot] = cond
+        level = np.empty(n, dtype=np.int8)
+        _latch(
+            lower, d, ok, self._on, self._steps_on, self._history, self._count, self._slot,
+            self._k, self._hold, cfg.hysteresis, level,
+        )  # fmt: skip
         self._slot = (self._slot + 1) % self._n
-        raised = cond & (self._count >= self._k)
+        return level
 
-        self._steps_on += self._on
-        release = (self._steps_on >= self._hold) & (lower > d * (1.0 + cfg.hysteresis))
-        on = (self._on & ~release) | raised
-        on[0] |= on[1]
-        self._steps_on[on & ~self._on] = 0
-        self._on = on
-        self.reset(~ok)
-        return self.level
+
+@njit(cache=True)
+def _latch(
+    lower, d, ok, on, steps_on, history, count, slot, k, hold, hysteresis, level
+):  # pragma: no cover - compiled
+    """One step of the latches of every pair, in place (the rules of the module docstring).
+
+    ``lower (N,)`` is the compared gap, ``d (2, N)`` the caution and imminent distances,
+    ``ok (N,)`` the pairs with a track; ``history[:, :, slot]`` receives this step's
+    conditions; ``level (N,)`` receives the output level.
+    """
+    now = np.zeros(2, dtype=np.bool_)
+    for i in range(lower.size):
+        if not ok[i]:  # no track: level none, state cleared
+            for lv in range(2):
+                on[lv, i] = False
+                steps_on[lv, i] = 0
+                count[lv, i] = 0
+                history[lv, i, :] = False
+            level[i] = NONE
+            continue
+        for lv in range(2):
+            cond = lower[i] < d[lv, i]
+            count[lv, i] += np.int64(cond) - np.int64(history[lv, i, slot])
+            history[lv, i, slot] = cond
+            steps_on[lv, i] += np.int64(on[lv, i])
+            release = steps_on[lv, i] >= hold and lower[i] > d[lv, i] * (1.0 + hysteresis)
+            now[lv] = (on[lv, i] and not release) or (cond and count[lv, i] >= k)
+        now[0] = now[0] or now[1]  # imminent => caution
+        for lv in range(2):
+            if now[lv] and not on[lv, i]:
+                steps_on[lv, i] = 0
+            on[lv, i] = now[lv]
+        level[i] = IMMINENT if now[1] else (CAUTION if now[0] else NONE)

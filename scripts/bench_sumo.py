@@ -65,12 +65,12 @@ def _pipeline(sumocfg: str, end: float) -> tuple[float, int, float, float]:
     simultaneously equipped vehicles, and the resident memory [MB] at a quarter of the run
     and at its end."""
     from acc_fusion.fcw import SimConfig, simulate
-    from acc_fusion.kalman import warmup
     from acc_fusion.sumo import SumoConfig, SumoSource
 
-    warmup()
     source = SumoSource(SumoConfig(sumocfg=sumocfg, end=end))
     sim = SimConfig(runs=1, dt=source.dt, methods=("federated",))
+    # Before timing: compile (or load from numba's cache) every kernel of the pipeline.
+    simulate(replace(sim, runs=4, duration=2.0))
     peak, rss = [0], []
 
     def count(view) -> None:
