@@ -47,3 +47,17 @@ def run_methods(configs: dict[str, FusionConfig], n: int, steps: int, seed: int,
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)
+
+
+def run_episode(env, seed=None, policy=lambda obs: 0):
+    """Play one episode of a gymnasium env; returns (observations and rewards flattened,
+    infos, terminated, truncated)."""
+    obs, info = env.reset(seed=seed)
+    rows, infos = [obs], [info]
+    done = False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        rows.append(np.append(obs, reward))
+        infos.append(info)
+        done = terminated or truncated
+    return np.concatenate(rows, axis=None), infos, terminated, truncated

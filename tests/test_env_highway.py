@@ -15,24 +15,13 @@ from acc_fusion.envs.collision_warning import (  # noqa: E402
     CollisionWarningVectorEnv,
     HighwayOptions,
 )
+from conftest import run_episode  # noqa: E402
 
 import acc_fusion  # noqa: E402,F401  (registers the environment)
 from acc_fusion.errors import ConfigError  # noqa: E402
 
 ENV_ID = "acc_fusion/CollisionWarning-v0"
 SHORT = {"duration": 6.0}
-
-
-def run_episode(env, seed=None, policy=lambda obs: 0):
-    obs, info = env.reset(seed=seed)
-    rows, infos = [obs], [info]
-    done = False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        rows.append(np.append(obs, reward))
-        infos.append(info)
-        done = terminated or truncated
-    return np.concatenate(rows, axis=None), infos, terminated, truncated
 
 
 def test_default_highway_env_passes_the_gymnasium_and_sb3_checkers():

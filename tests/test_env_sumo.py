@@ -17,6 +17,7 @@ from acc_fusion.envs.collision_warning import (  # noqa: E402
     CollisionWarningVectorEnv,
     SumoOptions,
 )
+from conftest import run_episode  # noqa: E402
 
 import acc_fusion  # noqa: E402,F401  (registers the environment)
 from acc_fusion.errors import ConfigError  # noqa: E402
@@ -42,18 +43,6 @@ def make():
     yield build
     for env in made:
         env.close()
-
-
-def run_episode(env, seed=None, policy=lambda obs: 0):
-    obs, info = env.reset(seed=seed)
-    rows, infos = [obs], [info]
-    done = False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        rows.append(np.append(obs, reward))
-        infos.append(info)
-        done = terminated or truncated
-    return np.concatenate(rows, axis=None), infos, terminated, truncated
 
 
 def test_default_sumo_env_passes_the_gymnasium_and_sb3_checkers():
