@@ -66,6 +66,18 @@ class _MinTTC:
                 self.min_ttc[vid] = min(self.min_ttc.get(vid, np.inf), float(view.ttc[k]))
 
 
+def _then(first, second):
+    """The ``on_step`` hook that calls ``first`` (if any), then ``second``."""
+    if first is None:
+        return second
+
+    def both(view: StepView) -> None:
+        first(view)
+        second(view)
+
+    return both
+
+
 @dataclass
 class SumoRun:
     """What one SUMO run returns from its worker process.
@@ -84,11 +96,15 @@ class SumoRun:
 
 
 def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> SumoRun:
-    """One SUMO run (in a worker process)."""
+    """One SUMO run (in a worker process); in ``sumo-gui`` (``sumo_config.gui``) the vehicles
+    are coloured by the warning level of the last method of ``sim``."""
     from acc_fusion.sumo import SumoError, SumoSource
 
     with SumoSource(replace(sumo_config, ssm=cross_check)) as source:
         hook = _MinTTC(source) if cross_check else None
+        if sumo_config.gui:
+            method = sim.methods[-1]
+            hook = _then(hook, lambda view: source.set_warning_colors(view.levels[method]))
         metrics_so_far: dict[str, FCWSummary] = {}
         error = None
         try:
@@ -151,11 +167,13 @@ class SumoStudy:
 
 def sumo_study(sumo_config, sim: SimConfig, *, progress: bool = False) -> SumoStudy:
     """Run ``sumo_config`` with FCW off (every method watching) and on (federated alerts),
-    each in its own process, in parallel."""
+    each in its own process, in parallel.  With ``gui``, the FCW-on run is the one shown in
+    ``sumo-gui`` (vehicles coloured by its warning level); the FCW-off run stays headless."""
     drive = sim.drive or sim.methods[-1]
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
-        off = pool.submit(_run, sumo_config, replace(sim, drive=None), progress, True)
+        headless = replace(sumo_config, gui=False)
+        off = pool.submit(_run, headless, replace(sim, drive=None), progress, True)
         on = pool.submit(
             _run, sumo_config, replace(sim, drive=drive, methods=(drive,)), False, False
         )

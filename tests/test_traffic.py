@@ -50,3 +50,36 @@ def test_user_sumocfg_errors_are_one_line(tmp_path, capsys):
     assert main(["sumo", "--sumocfg", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "missing.net.xml" in err and "Traceback" not in err
+
+
+def test_gui_run_colours_vehicles_by_the_driving_methods_warning(monkeypatch):
+    """``--gui``: the FCW-on run paints every equipped vehicle in the colour of its warning
+    level at every step (TraCI; the plain ``sumo`` binary stands in for ``sumo-gui``)."""
+    import numpy as np
+
+    import acc_fusion.sumo as sumo_mod
+    from acc_fusion.fcw import SimConfig
+    from acc_fusion.sumo import SumoConfig, SumoSource
+    from acc_fusion.traffic import _run
+
+    real = sumo_mod._sumo_binary
+    monkeypatch.setattr(sumo_mod, "_sumo_binary", lambda gui: real(False))
+    monkeypatch.setattr(sumo_mod, "_has_display", lambda: True)
+    shown = []
+    paint = SumoSource.set_warning_colors
+
+    def record(source, levels):
+        paint(source, levels)
+        for slot in np.flatnonzero(source.active):
+            colour = tuple(source._api.vehicle.getColor(source.vehicle_ids[slot]))
+            assert colour == sumo_mod.WARNING_COLORS[levels[slot]]
+        shown.append(np.asarray(levels)[source.active])
+
+    monkeypatch.setattr(SumoSource, "set_warning_colors", record)
+    cfg = SumoConfig(
+        str(bundled_nets()["onramp"]), end=40.0, hazard_rate=300.0, capacity=128, gui=True
+    )
+    sim = SimConfig(runs=1, methods=("federated",), drive="federated")
+    run = _run(cfg, sim, progress=False, cross_check=False)
+    assert run.error is None and len(shown) == 400
+    assert max(int(lv.max(initial=0)) for lv in shown) >= 1  # some vehicle was warned
