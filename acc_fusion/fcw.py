@@ -311,6 +311,11 @@ def simulate(
         source = make_scenario(
             cfg.scenario, cfg.runs, seed=np.random.default_rng(s_source), **overrides
         )
+    if cfg.drive is not None and not getattr(source, "accepts_brakes", True):
+        raise ConfigError(
+            f"{type(source).__name__} cannot apply brake requests, so it cannot run a closed "
+            f"loop (drive = {cfg.drive!r}); use a source that does (e.g. SumoSource)"
+        )
     n = len(source.active)
     perception = Perception(cfg, n, s_perception)
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}

@@ -112,7 +112,7 @@ from acc_fusion.fcw import SimConfig, StepView, on_off_table, simulate
 from acc_fusion.metrics import FCWSummary
 from acc_fusion.safety import safety_distances
 from acc_fusion.sumo import WARNING_COLORS
-from acc_fusion.truth import TruthFrame
+from acc_fusion.truth import SlotSource, TruthFrame
 from acc_fusion.validation import check_array, check_choice, check_range
 from acc_fusion.warning import LEVEL_NAMES, WarningConfig
 
@@ -263,7 +263,7 @@ def _check_video_driver() -> None:
         )
 
 
-class HighwaySource:
+class HighwaySource(SlotSource):
     """Ground truth of follower→leader pairs in highway-env traffic (see the module docstring).
 
     Args:
@@ -339,26 +339,6 @@ class HighwaySource:
         return self._done
 
     @property
-    def active(self) -> np.ndarray:
-        """``(N,)`` slots holding a vehicle that has not crashed before this step."""
-        return self._active.copy()
-
-    @property
-    def collided(self) -> np.ndarray:
-        """``(N,)`` slots whose vehicle ran into its leader in this episode."""
-        return self._collided.copy()
-
-    @property
-    def collision_speed(self) -> np.ndarray:
-        """``(N,)`` impact speed (ego minus leader speed) [m/s]; NaN where none."""
-        return self._collision_speed.copy()
-
-    @property
-    def reassigned(self) -> np.ndarray:
-        """``(N,)`` slots that got a vehicle of a new episode at this step."""
-        return self._reassigned.copy()
-
-    @property
     def terminated(self) -> bool:
         """highway-env terminated the current episode at this step (crash, merge passed)."""
         return self._terminated
@@ -372,10 +352,6 @@ class HighwaySource:
     def vehicles(self) -> list:
         """The highway-env vehicle of each occupied slot, in slot order."""
         return list(self._slot_vehicles)
-
-    def frame(self) -> TruthFrame:
-        """The current truth as a :class:`~acc_fusion.truth.TruthFrame`."""
-        return self._frame
 
     def id_of(self, vehicle: Any) -> int:
         """The integer id (``leader_id``) of a highway-env vehicle of the current episode."""
@@ -481,12 +457,6 @@ class HighwaySource:
         self._done = self._closed = True
         self._bar.close()
         self.env.close()
-
-    def __enter__(self) -> HighwaySource:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     # ---------------------------------------------------------------- internals
     def _start(self, seed: int | None, episode: int, first: bool = False) -> None:

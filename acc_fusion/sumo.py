@@ -132,7 +132,7 @@ from typing import Any
 import numpy as np
 
 from acc_fusion.errors import AccFusionError, ConfigError
-from acc_fusion.truth import TruthFrame
+from acc_fusion.truth import SlotSource, TruthFrame
 from acc_fusion.validation import check_array, check_choice, check_range
 
 #: Collision actions allowed for :attr:`SumoConfig.collision_action` (SUMO's
@@ -380,7 +380,7 @@ class _Hazard:
     emergency: float | None  # emergency deceleration to restore, None if unchanged
 
 
-class SumoSource:
+class SumoSource(SlotSource):
     """Ground truth of every equipped vehicle of a SUMO simulation (see the module docstring).
 
     Args:
@@ -565,26 +565,6 @@ class SumoSource:
         return not self._bounded and self._sumo_done
 
     @property
-    def active(self) -> np.ndarray:
-        """``(N,)`` slots holding an equipped vehicle in the network."""
-        return self._active.copy()
-
-    @property
-    def collided(self) -> np.ndarray:
-        """``(N,)`` slots whose current (or just removed) vehicle ran into another."""
-        return self._collided.copy()
-
-    @property
-    def collision_speed(self) -> np.ndarray:
-        """``(N,)`` impact speed (collider minus victim speed) [m/s]; NaN where none."""
-        return self._collision_speed.copy()
-
-    @property
-    def reassigned(self) -> np.ndarray:
-        """``(N,)`` slots that got a new vehicle at this step (reset their per-slot state)."""
-        return self._reassigned.copy()
-
-    @property
     def inattentive(self) -> np.ndarray:
         """``(N,)`` slots whose vehicle has an inattentive driver."""
         return self._inattentive & self._active
@@ -598,10 +578,6 @@ class SumoSource:
     def closed(self) -> bool:
         """Whether SUMO has been closed (by :meth:`close` or a failure)."""
         return self._closed
-
-    def frame(self) -> TruthFrame:
-        """The current truth as a :class:`~acc_fusion.truth.TruthFrame` (N = capacity)."""
-        return self._frame
 
     def slot_of(self, vehicle_id: str) -> int | None:
         """The slot of an equipped vehicle, or ``None``."""
@@ -712,18 +688,6 @@ class SumoSource:
             if _OPEN is not None and _OPEN() is self:
                 _OPEN = None
         self._cleanup()
-
-    def __enter__(self) -> SumoSource:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def __del__(self) -> None:
-        try:
-            self.close()
-        except Exception:
-            pass
 
     # ---------------------------------------------------------------- internals
     def _cleanup(self) -> None:

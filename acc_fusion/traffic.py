@@ -96,11 +96,16 @@ class SumoRun:
 
 
 def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> SumoRun:
-    """One SUMO run (in a worker process); in ``sumo-gui`` (``sumo_config.gui``) the vehicles
-    are coloured by the warning level of the last method of ``sim``."""
+    """One SUMO run (in a worker process).  In open loop SUMO runs in a child process ahead of
+    the pipeline (:class:`~acc_fusion.sumo_background.BackgroundSumoSource`); in ``sumo-gui``
+    (``sumo_config.gui``) the vehicles are coloured by the warning level of the last method
+    of ``sim``."""
     from acc_fusion.sumo import SumoError, SumoSource
+    from acc_fusion.sumo_background import BackgroundSumoSource
 
-    with SumoSource(replace(sumo_config, ssm=cross_check)) as source:
+    config = replace(sumo_config, ssm=cross_check)
+    background = sim.drive is None and not config.gui
+    with BackgroundSumoSource(config) if background else SumoSource(config) as source:
         hook = _MinTTC(source) if cross_check else None
         if sumo_config.gui:
             method = sim.methods[-1]

@@ -10,6 +10,7 @@ filters re-initialise.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,6 +87,66 @@ class TruthFrame:
     def state(self) -> np.ndarray:
         """True state ``(N, 3)`` of the estimators: gap, range-rate, lead acceleration."""
         return np.stack([self.gap, self.range_rate, self.lead_accel], axis=1)
+
+
+class SlotSource(ABC):
+    """The per-slot arrays of a truth source whose pairs are *slots* that vehicles come and go
+    from (SUMO, highway-env): each property returns a copy of the source's current array.
+
+    A subclass keeps ``_frame`` (the current :class:`TruthFrame`) and the ``(N,)`` arrays
+    ``_active`` (the slot holds a vehicle), ``_collided`` (its vehicle ran into another),
+    ``_collision_speed`` (impact speed [m/s], NaN where none) and ``_reassigned`` (a new
+    vehicle took the slot at this step: its per-slot state starts afresh).  It also has a
+    ``close()`` that releases the simulation (idempotent), called on leaving a ``with`` block
+    and when the source is garbage-collected.
+    """
+
+    _frame: TruthFrame
+    _active: np.ndarray
+    _collided: np.ndarray
+    _collision_speed: np.ndarray
+    _reassigned: np.ndarray
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(N,)`` slots holding a vehicle now."""
+        return self._active.copy()
+
+    @property
+    def collided(self) -> np.ndarray:
+        """``(N,)`` slots whose vehicle ran into another (the flag stays until the slot is
+        reassigned)."""
+        return self._collided.copy()
+
+    @property
+    def collision_speed(self) -> np.ndarray:
+        """``(N,)`` impact speed (collider minus victim speed) [m/s]; NaN where none."""
+        return self._collision_speed.copy()
+
+    @property
+    def reassigned(self) -> np.ndarray:
+        """``(N,)`` slots that got a new vehicle at this step (reset their per-slot state)."""
+        return self._reassigned.copy()
+
+    def frame(self) -> TruthFrame:
+        """The current truth as a :class:`TruthFrame`."""
+        return self._frame
+
+    @abstractmethod
+    def close(self) -> None:
+        """Release the simulation (idempotent); the last frame stays readable."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # a half-built source, or interpreter shutdown
+            pass
 
 
 class LinearGaussianSource:

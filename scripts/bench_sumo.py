@@ -4,9 +4,11 @@ Runs the same SUMO scenario (the bundled motorway, >= 500 vehicles at peak) twic
 fresh process (libsumo allows one simulation per process), one after the other:
 
 * **bare**: SUMO alone, ``simulationStep`` in a loop;
-* **pipeline**: SUMO through :class:`acc_fusion.sumo.SumoSource` with the whole FCW
-  pipeline on every equipped vehicle: radar and infrared sensors, ego-motion filter,
-  federated fusion with fault detection, warning logic, oracle and streaming metrics.
+* **pipeline**: SUMO through :class:`acc_fusion.sumo_background.BackgroundSumoSource` (the
+  :class:`acc_fusion.sumo.SumoSource` in a child process, one step ahead: exact in open
+  loop) with the whole FCW pipeline on every equipped vehicle: radar and infrared sensors,
+  ego-motion filter, federated fusion with fault detection, warning logic, oracle and
+  streaming metrics.  ``--inline`` runs the source in the pipeline's own process instead.
 
 It prints both wall times, the peak number of vehicles and equipped pairs, the resident
 memory of the pipeline process at a quarter of the run and at its end (memory must stay
@@ -60,14 +62,16 @@ def _rss_mb() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
 
 
-def _pipeline(sumocfg: str, end: float) -> tuple[float, int, float, float]:
+def _pipeline(sumocfg: str, end: float, inline: bool) -> tuple[float, int, float, float]:
     """Wall time of SUMO with the FCW pipeline on every equipped vehicle, the peak of
-    simultaneously equipped vehicles, and the resident memory [MB] at a quarter of the run
-    and at its end."""
+    simultaneously equipped vehicles, and the resident memory [MB] of the pipeline's process
+    at a quarter of the run and at its end."""
     from acc_fusion.fcw import SimConfig, simulate
     from acc_fusion.sumo import SumoConfig, SumoSource
+    from acc_fusion.sumo_background import BackgroundSumoSource
 
-    source = SumoSource(SumoConfig(sumocfg=sumocfg, end=end))
+    config = SumoConfig(sumocfg=sumocfg, end=end)
+    source = SumoSource(config) if inline else BackgroundSumoSource(config)
     sim = SimConfig(runs=1, dt=source.dt, methods=("federated",))
     # Before timing: compile (or load from numba's cache) every kernel of the pipeline.
     simulate(replace(sim, runs=4, duration=2.0))
@@ -93,6 +97,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="200 s simulated (under a minute)")
     parser.add_argument("--end", type=float, help="simulated seconds (default 600, quick 200)")
     parser.add_argument("--net", default="motorway", help="bundled network (default motorway)")
+    parser.add_argument(
+        "--inline", action="store_true", help="SUMO in the pipeline's process (no child)"
+    )
     args = parser.parse_args(argv)
     nets = bundled_nets()
     if args.net not in nets:
@@ -101,13 +108,14 @@ def main(argv: list[str] | None = None) -> None:
     sumocfg = str(nets[args.net])
     ctx = multiprocessing.get_context("spawn")
     results = {}
-    for name, func in (("bare", _bare), ("pipeline", _pipeline)):
+    for name, func, extra in (("bare", _bare, ()), ("pipeline", _pipeline, (args.inline,))):
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
-            results[name] = pool.submit(func, sumocfg, end).result()
+            results[name] = pool.submit(func, sumocfg, end, *extra).result()
     (t_bare, peak), (t_pipe, pairs, rss_quarter, rss_end) = results["bare"], results["pipeline"]
     print(f"network {args.net}: {end:g} s simulated, peak {peak} vehicles, {pairs} equipped pairs")
     print(f"bare SUMO           {t_bare:8.2f} s wall")
-    print(f"SUMO + FCW pipeline {t_pipe:8.2f} s wall")
+    where = "in the pipeline's process" if args.inline else "in a child process, a step ahead"
+    print(f"SUMO + FCW pipeline {t_pipe:8.2f} s wall (SUMO {where})")
     print(
         f"pipeline process memory: {rss_quarter:.0f} MB at {end / 4:g} s, {rss_end:.0f} MB at "
         f"{end:g} s ({rss_end - rss_quarter:+.1f} MB)"

@@ -1,11 +1,17 @@
 """SUMO truth source on a generated 2-lane road: slots, gap geometry, penetration, arrivals,
 hazards, closed-loop braking, collisions, the SSM cross-check, errors, reproducibility, and
-the one-simulation-per-process rule.  Each test runs at most a few short SUMO simulations."""
+the one-simulation-per-process rule; SUMO in a background process (``BackgroundSumoSource``):
+the same frames step for step, open loop only, errors, warnings, a script without a
+``__main__`` guard.  Each test runs at most a few short SUMO simulations."""
 
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
+import sys
+import textwrap
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,7 +20,9 @@ libsumo = pytest.importorskip("libsumo")
 
 import acc_fusion.sumo as sumo_mod  # noqa: E402
 from acc_fusion.errors import ConfigError  # noqa: E402
+from acc_fusion.fcw import SimConfig, simulate  # noqa: E402
 from acc_fusion.sumo import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
+from acc_fusion.sumo_background import COUNTERS, BackgroundSumoSource  # noqa: E402
 
 ROUTES = """<routes>
   <vType id="car" length="4.5" minGap="2.5" accel="2.6" decel="4.5" sigma="0.5" tau="1.0"/>
@@ -396,3 +404,123 @@ def test_real_sumo_gui_colours_vehicles_by_warning_level(road, virtual_display):
             vid = src.vehicle_ids[slot]
             colour = tuple(src._api.vehicle.getColor(vid))[:3]
             assert colour == tuple(sumo_mod.WARNING_COLORS[levels[slot]])[:3]
+
+
+# ---------------------------------------------------------------- background process
+def trace(src) -> list[tuple]:
+    """Everything the FCW loop reads of a source, step by step, to the end."""
+    out = []
+    while True:
+        f = src.frame()
+        out.append(
+            (
+                f.t,
+                np.stack([f.ego_speed, f.ego_accel, f.gap, f.lead_speed, f.lead_accel]),
+                f.leader_id,
+                np.stack([src.active, src.reassigned, src.collided, src.inattentive]),
+                src.collision_speed,
+                src.vehicle_ids,
+                tuple(getattr(src, c) for c in COUNTERS),
+            )
+        )
+        if src.done:
+            return out
+        src.advance()
+
+
+def test_same_frames_and_ssm_as_the_in_process_source(road):
+    cfg = config(
+        road, end=40.0, seed=4, penetration=0.7, hazard_rate=200.0, inattentive=0.5, ssm=True
+    )
+    with SumoSource(cfg) as src:
+        inline, ssm = trace(src), src.ssm_min_ttc()
+    with BackgroundSumoSource(cfg) as src:
+        assert (src.dt, src.n_pairs, src.n_steps) == (0.1, 64, 400)
+        background, ssm_bg = trace(src), src.ssm_min_ttc()
+    assert len(background) == len(inline) == 401
+    for a, b in zip(inline, background, strict=True):
+        assert a[0] == b[0] and a[5] == b[5] and a[6] == b[6]
+        for x, y in zip(a[1:5], b[1:5], strict=True):
+            np.testing.assert_array_equal(x, y)
+    assert inline[-1][6][3] > 0 and ssm_bg == ssm and any(np.isfinite(list(ssm.values())))
+
+
+def test_open_loop_only(road):
+    with BackgroundSumoSource(config(road, end=5.0)) as src:
+        src.advance(np.zeros(src.n_pairs))  # no request: fine
+        with pytest.raises(ConfigError, match="cannot apply brake requests"):
+            src.advance(np.full(src.n_pairs, 2.0))
+        with pytest.raises(SumoError, match="once it is done"):
+            src.ssm_min_ttc()
+        with pytest.raises(ConfigError, match="cannot run a closed loop"):
+            simulate(SimConfig(runs=1, dt=src.dt, drive="federated"), source=src)
+        open_loop = simulate(SimConfig(runs=1, dt=src.dt, methods=("radar",)), source=src)
+        assert src.done and open_loop.steps == 49
+        with pytest.raises(SumoError, match="has ended"):
+            src.advance()
+    with pytest.raises(ConfigError, match="gui needs"):
+        BackgroundSumoSource(config(road, gui=True))
+
+
+def test_errors_reach_the_parent_as_the_in_process_source_raises_them(road, tmp_path):
+    with pytest.raises(ConfigError, match="nowhere.sumocfg.*does not exist"):
+        BackgroundSumoSource(SumoConfig(str(tmp_path / "nowhere.sumocfg")))
+    late = SumoConfig(
+        str(road / "late_bad.sumocfg"), capacity=16, extra_args=("--route-steps", "5")
+    )
+    src = BackgroundSumoSource(late)
+    with pytest.raises(SumoError, match=r"SUMO failed at t = .*no_such_edge") as failure:
+        simulate(SimConfig(runs=1, dt=src.dt, methods=("radar",)), source=src)
+    assert src.closed and src.done and 5.0 <= src.t < 30.0
+    assert failure.value.summaries["radar"].hours > 0  # the metrics so far are kept
+    with pytest.raises(SumoError, match="closed"):
+        src.advance()
+
+
+def test_a_dead_child_is_a_clear_error(road):
+    src = BackgroundSumoSource(config(road, end=600.0))
+    os.kill(src._proc.pid, signal.SIGKILL)
+    with pytest.raises(SumoError, match=r"ended unexpectedly \(exit code -9\)"):
+        while True:  # the frames already in the socket come first
+            src.advance()
+    assert src.closed
+
+
+def test_warnings_are_forwarded_and_sources_run_side_by_side(road):
+    with pytest.warns(RuntimeWarning, match="more than capacity = 2"):
+        with BackgroundSumoSource(config(road, end=20.0, capacity=2)) as small:
+            with BackgroundSumoSource(config(road, end=20.0, seed=1)) as other:
+                while not small.done:
+                    small.advance()
+                    other.advance()
+                assert small.active.sum() == 2 and other.active.sum() > 2
+
+
+def test_a_script_without_a_main_guard_can_use_it(road, tmp_path):
+    script = tmp_path / "user.py"
+    script.write_text(
+        textwrap.dedent(
+            f"""
+            from acc_fusion.sumo import SumoConfig
+            from acc_fusion.sumo_background import BackgroundSumoSource
+            src = BackgroundSumoSource(SumoConfig({str(road / "road.sumocfg")!r}, end=2.0))
+            while not src.done:
+                src.advance()
+            print("ended at", round(src.t, 3))
+            src.close()
+            """
+        )
+    )
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ended at 2.0"
+
+
+def test_simulate_gives_the_same_summary(road):
+    cfg = config(road, end=30.0, seed=3, hazard_rate=300.0)
+    sim = SimConfig(runs=1, dt=0.1, methods=("radar", "federated"))
+    with SumoSource(cfg) as src:
+        inline = simulate(replace(sim), source=src).summaries
+    with BackgroundSumoSource(cfg) as src:
+        background = simulate(replace(sim), source=src).summaries
+    assert background == inline and inline["federated"].warnings > 0

@@ -1,0 +1,296 @@
+"""SUMO in a background process, a few steps ahead of the FCW pipeline (open loop).
+
+:class:`BackgroundSumoSource` offers the read side of :class:`~acc_fusion.sumo.SumoSource`
+(``frame()``, ``advance()``, ``t``, ``n_steps``, ``done``, ``active``, ``reassigned``,
+``collided``, ``collision_speed``, ``inattentive``, ``vehicle_ids``, the counters and
+:meth:`~BackgroundSumoSource.ssm_min_ttc`) while the :class:`~acc_fusion.sumo.SumoSource`
+itself runs in a child process.  The child steps SUMO, reads the frame and sends it, without
+waiting to be asked, so the SUMO steps and the libsumo reads run on one core while the
+pipeline processes earlier frames on the other.  The socket between them is the only bound:
+when its buffer is full (two or three frames), the child's send waits for the parent to read.
+Nothing waits for a request per step: on a virtual machine, waking a sleeping process costs
+a quarter of a millisecond or more, as much as a SUMO step, and a request-reply per frame
+paid it twice per step.
+
+Why this is exact, and only in open loop
+    The frames are those of a :class:`~acc_fusion.sumo.SumoSource` with the same config,
+    bit for bit (the child *is* one), because nothing the pipeline does reaches SUMO when no
+    driver hears the warnings: hazards, inattentive drivers and slots are drawn inside the
+    source.  A closed loop sends each step's brake requests to SUMO *before* the next step,
+    which a source running ahead cannot honour, so :meth:`BackgroundSumoSource.advance`
+    refuses them and :func:`acc_fusion.fcw.simulate` refuses a closed loop on a source whose
+    ``accepts_brakes`` is false.  ``gui`` (sumo-gui, coloured by warning) needs the pipeline's
+    levels in SUMO too and is refused as well.
+
+Processes
+    The child is a fresh interpreter (``python -c``, not ``multiprocessing``: a user's script
+    without a ``__main__`` guard is not re-imported), connected by a socket pair; libsumo
+    holds one simulation per process, so any number of background sources can run in one
+    parent process, each with its own child.  Frames cross the socket, pickled: about 50-80 µs
+    of the parent's time per step for 1024 slots.  The source's ``RuntimeWarning`` s (e.g.
+    more equipped vehicles than slots) are re-issued in the parent.  A SUMO failure in the
+    child reaches the parent as the same :class:`~acc_fusion.sumo.SumoError` at the frame
+    where it happened (the frames before it were delivered); a child that dies is a
+    :class:`~acc_fusion.sumo.SumoError` naming its exit code.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import warnings
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+
+from acc_fusion.errors import AccFusionError, ConfigError
+from acc_fusion.sumo import SumoConfig, SumoError, SumoSource
+from acc_fusion.truth import SlotSource, TruthFrame
+from acc_fusion.validation import check_array
+
+#: Counters of :class:`~acc_fusion.sumo.SumoSource` mirrored by the background source.
+COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
+#: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
+CLOSE_TIMEOUT = 30.0
+
+
+def _snapshot(src: SumoSource, ids_changed: bool, caught: list) -> tuple:
+    """What the parent needs of the source's current step (the slot ids only when changed)."""
+    return (
+        "frame",
+        src.frame(),
+        src.active,
+        src.reassigned,
+        src.collided,
+        src.collision_speed,
+        src.inattentive,
+        src.vehicle_ids if ids_changed else None,
+        src.done,
+        tuple(getattr(src, c) for c in COUNTERS),
+        [(w.category, str(w.message)) for w in caught],
+    )
+
+
+def _failure(exc: BaseException) -> tuple:
+    """An error message for the parent: the exception's type if it is ours, else SumoError."""
+    kind = type(exc) if isinstance(exc, AccFusionError) else SumoError
+    return ("error", kind, str(exc) or type(exc).__name__)
+
+
+def _child(fd: int) -> None:
+    """Entry point of the child process: serve the config it receives on socket ``fd``."""
+    conn = Connection(fd)
+    _serve(conn.recv(), conn)
+
+
+def _serve(config: SumoConfig, conn: Any) -> None:
+    """Run a :class:`SumoSource` to its end, sending every frame as soon as it is read; then
+    answer ``"ssm"`` requests until the parent closes the socket."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            src = SumoSource(config)
+        except Exception as exc:  # a bad config or SUMO not loading: the parent raises it
+            conn.send(_failure(exc))
+            return
+        try:
+            meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
+            conn.send(("meta", meta))
+            ids = src.vehicle_ids
+            conn.send(_snapshot(src, True, caught))
+            while not src.done:
+                caught.clear()
+                try:
+                    src.advance()
+                except Exception as exc:  # SUMO failed: the parent raises it at this frame
+                    conn.send(_failure(exc))
+                    break
+                now = src.vehicle_ids
+                conn.send(_snapshot(src, now != ids, caught))
+                ids = now
+            while conn.recv() == "ssm":
+                conn.send(("ssm", src.ssm_min_ttc()))
+        except (EOFError, OSError):  # the parent closed the socket (or went away)
+            pass
+        finally:
+            src.close()
+
+
+class BackgroundSumoSource(SlotSource):
+    """A :class:`~acc_fusion.sumo.SumoSource` run in a child process, one step ahead (see
+    the module docstring).  Open loop only: ``advance`` takes no brake requests.
+
+    Example:
+        >>> from acc_fusion.fcw import SimConfig, simulate
+        >>> from acc_fusion.traffic import bundled_nets
+        >>> with BackgroundSumoSource(SumoConfig(str(bundled_nets()["ring"]), end=5.0)) as src:
+        ...     result = simulate(SimConfig(runs=1, dt=src.dt), source=src)
+        >>> result.steps
+        50
+
+    Args:
+        config: the source's :class:`~acc_fusion.sumo.SumoConfig` (``gui`` must be false).
+
+    Raises:
+        ConfigError: ``gui`` is set, or the config is invalid (as ``SumoSource`` raises it).
+        SumoError: SUMO could not load the configuration.
+    """
+
+    #: Closed loops need a source that applies brake requests before its next step.
+    accepts_brakes = False
+
+    def __init__(self, config: SumoConfig) -> None:
+        if not isinstance(config, SumoConfig):
+            raise ConfigError(f"config must be a SumoConfig, got {type(config).__name__}")
+        if config.gui:
+            raise ConfigError(
+                "gui needs the warning levels in SUMO at every step; run it with SumoSource"
+            )
+        self.config = config
+        self._closed = True
+        mine, theirs = socket.socketpair()
+        fd = theirs.fileno()
+        code = f"from acc_fusion.sumo_background import _child; _child({fd})"
+        path = os.pathsep.join(
+            p for p in sys.path if p
+        )  # the parent's imports, also from a checkout
+        env = {**os.environ, "PYTHONPATH": path}
+        self._proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(fd,), env=env)
+        theirs.close()
+        self._conn = Connection(mine.detach())
+        self._closed = False
+        try:
+            self._conn.send(config)
+            meta = self._receive("meta")[1]
+            self.dt, self.begin, self.end_time = meta["dt"], meta["begin"], meta["end_time"]
+            self.n_pairs, self._n_steps = meta["n_pairs"], meta["n_steps"]
+            self._vehicle_ids: list[str | None] = []
+            self._k = 0
+            self._take(self._receive("frame"))
+        except BaseException:
+            self.close()
+            raise
+
+    # ---------------------------------------------------------------- the child's answers
+    def _receive(self, kind: str) -> tuple:
+        try:
+            message = self._conn.recv()
+        except (EOFError, OSError):
+            try:
+                code = self._proc.wait(timeout=CLOSE_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                code = None
+            self.close()
+            raise SumoError(
+                f"the SUMO process running {self.config.sumocfg!r} ended unexpectedly "
+                f"(exit code {code})"
+            ) from None
+        if message[0] == "error":
+            _, error_type, text = message
+            self.close()
+            raise error_type(text)
+        if message[0] != kind:  # a protocol slip would silently shift every frame
+            self.close()
+            raise SumoError(f"the SUMO process answered {message[0]!r} to a {kind!r} request")
+        return message
+
+    def _take(self, message: tuple) -> None:
+        (_, frame, active, reassigned, collided, speed, inatt, ids, done, counts, caught) = message
+        self._frame: TruthFrame = frame
+        self._active, self._reassigned, self._collided = active, reassigned, collided
+        self._collision_speed, self._inattentive, self._done = speed, inatt, done
+        if ids is not None:
+            self._vehicle_ids = ids
+        for name, value in zip(COUNTERS, counts, strict=True):
+            setattr(self, name, value)
+        for category, text in caught:
+            warnings.warn(text, category, stacklevel=3)
+
+    # ---------------------------------------------------------------- the source interface
+    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+        """The next frame (usually already computed and waiting in the socket).
+
+        Raises:
+            ConfigError: a brake request (any value > 0): this source runs ahead of them.
+            SumoError: SUMO failed at this step, the run has ended, or the source is closed.
+        """
+        if ego_brake is not None:
+            brake = check_array("ego_brake", ego_brake, (self.n_pairs,), finite=False)
+            if np.any(brake > 0):
+                raise ConfigError(
+                    "a BackgroundSumoSource runs one step ahead and cannot apply brake "
+                    "requests; use SumoSource for a closed loop"
+                )
+        if self._closed:
+            raise SumoError("the SUMO simulation is closed; open a new source")
+        if self._done:
+            raise SumoError(f"the SUMO run has ended at t = {self.t:g} s")
+        self._take(self._receive("frame"))
+        self._k += 1
+        return self._frame
+
+    @property
+    def t(self) -> float:
+        """Current simulation time [s]."""
+        return self._frame.t
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps from the begin time to the end time."""
+        return self._n_steps
+
+    @property
+    def done(self) -> bool:
+        """The run has ended (as :attr:`SumoSource.done`), or the source is closed."""
+        return self._closed or self._done
+
+    @property
+    def closed(self) -> bool:
+        """Whether the child process has been closed (by :meth:`close` or a failure)."""
+        return self._closed
+
+    @property
+    def inattentive(self) -> np.ndarray:
+        """``(N,)`` slots whose vehicle has an inattentive driver."""
+        return self._inattentive.copy()
+
+    @property
+    def vehicle_ids(self) -> list[str | None]:
+        """SUMO id of each slot's vehicle (``None`` for an empty slot)."""
+        return list(self._vehicle_ids)
+
+    def slot_of(self, vehicle_id: str) -> int | None:
+        """The slot of an equipped vehicle, or ``None``."""
+        try:
+            return self._vehicle_ids.index(vehicle_id)
+        except ValueError:
+            return None
+
+    def ssm_min_ttc(self) -> dict[str, float]:
+        """As :meth:`SumoSource.ssm_min_ttc`, once the run is done (the child is ahead of the
+        parent before that).
+
+        Raises:
+            SumoError: the run is not done yet, or the source is closed.
+        """
+        if self._closed:
+            raise SumoError("the SUMO process is closed; ask for ssm_min_ttc() before close()")
+        if not self._done:
+            raise SumoError("ssm_min_ttc() of a background source is available once it is done")
+        self._conn.send("ssm")
+        return self._receive("ssm")[1]
+
+    def close(self) -> None:
+        """Stop the child process (idempotent); the last frame and counters stay readable."""
+        if self._closed:
+            return
+        self._closed = True
+        self._conn.close()  # the child, reading or sending, sees the socket closed and exits
+        try:
+            self._proc.wait(timeout=CLOSE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()
