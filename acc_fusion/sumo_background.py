@@ -233,6 +233,11 @@ class BackgroundSumoSource(SlotSource):
         return self._frame
 
     @property
+    def pid(self) -> int:
+        """Process id of the child running SUMO."""
+        return self._proc.pid
+
+    @property
     def t(self) -> float:
         """Current simulation time [s]."""
         return self._frame.t
