@@ -1,4 +1,4 @@
-"""SUMO in a background process, a few steps ahead of the FCW pipeline (open loop).
+"""SUMO in a background process, streaming frames ahead of the FCW pipeline (open loop).
 
 :class:`BackgroundSumoSource` offers the read side of :class:`~acc_fusion.sumo.SumoSource`
 (``frame()``, ``advance()``, ``t``, ``n_steps``, ``done``, ``active``, ``reassigned``,
@@ -37,6 +37,7 @@ Processes
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -81,7 +82,9 @@ def _failure(exc: BaseException) -> tuple:
 
 
 def _child(fd: int) -> None:
-    """Entry point of the child process: serve the config it receives on socket ``fd``."""
+    """Entry point of the child process: serve the config it receives on socket ``fd``.
+    Ctrl-C is the parent's to handle: the child ends when the parent closes the socket."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     conn = Connection(fd)
     _serve(conn.recv(), conn)
 
@@ -120,8 +123,9 @@ def _serve(config: SumoConfig, conn: Any) -> None:
 
 
 class BackgroundSumoSource(SlotSource):
-    """A :class:`~acc_fusion.sumo.SumoSource` run in a child process, one step ahead (see
-    the module docstring).  Open loop only: ``advance`` takes no brake requests.
+    """A :class:`~acc_fusion.sumo.SumoSource` run in a child process that streams its frames
+    ahead of the caller (see the module docstring).  Open loop only: ``advance`` takes no
+    brake requests.
 
     Example:
         >>> from acc_fusion.fcw import SimConfig, simulate
@@ -221,7 +225,7 @@ class BackgroundSumoSource(SlotSource):
             brake = check_array("ego_brake", ego_brake, (self.n_pairs,), finite=False)
             if np.any(brake > 0):
                 raise ConfigError(
-                    "a BackgroundSumoSource runs one step ahead and cannot apply brake "
+                    "a BackgroundSumoSource runs ahead of the pipeline and cannot apply brake "
                     "requests; use SumoSource for a closed loop"
                 )
         if self._closed:

@@ -5,8 +5,8 @@ fresh process (libsumo allows one simulation per process), one after the other:
 
 * **bare**: SUMO alone, ``simulationStep`` in a loop;
 * **pipeline**: SUMO through :class:`acc_fusion.sumo_background.BackgroundSumoSource` (the
-  :class:`acc_fusion.sumo.SumoSource` in a child process, one step ahead: exact in open
-  loop) with the whole FCW pipeline on every equipped vehicle: radar and infrared sensors,
+  :class:`acc_fusion.sumo.SumoSource` in a child process, streaming its frames ahead: exact
+  in open loop) with the whole FCW pipeline on every equipped vehicle: radar and infrared sensors,
   ego-motion filter, federated fusion with fault detection, warning logic, oracle and
   streaming metrics.  ``--inline`` runs the source in the pipeline's own process instead.
 
