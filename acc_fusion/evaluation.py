@@ -405,36 +405,11 @@ def comparison_table(evaluations: Sequence[Evaluation]) -> Table:
     return table
 
 
-def compare_policies(
-    policies: Mapping[str, Any],
-    source: str = "scripted",
-    episodes: int = 100,
-    seed: int = 0,
-    scenario: str = "random",
-    warn_level: int = 2,
-    tolerance: float = 1.0,
-    progress: bool = False,
-    **env_kwargs,
-) -> Table:
-    """:func:`evaluate` every policy (keys are the labels) on the same episodes; the table of
-    :func:`comparison_table`.  ``env_kwargs``: ``config``, ``reward``, ``max_episode_steps``,
-    ``sumo``, ``highway``.
-
-    One environment serves every policy (one after the other).
-    """
-    return comparison_table(
-        evaluate_many(
-            policies,
-            source,
-            episodes,
-            seed,
-            scenario,
-            warn_level,
-            tolerance,
-            progress,
-            **env_kwargs,
-        )
-    )
+def compare_policies(policies: Mapping[str, Any], *args: Any, **kwargs: Any) -> Table:
+    """:func:`evaluate_many` (same arguments: ``source``, ``episodes``, ``seed``, ...) turned
+    into the table of :func:`comparison_table`: every policy (keys are the labels) on the same
+    episodes, one environment serving every policy one after the other."""
+    return comparison_table(evaluate_many(policies, *args, **kwargs))
 
 
 def evaluate_many(
