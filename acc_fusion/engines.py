@@ -20,6 +20,8 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from acc_fusion import kalman
+from acc_fusion.errors import ConfigError
+from acc_fusion.models import STATE_DIM
 from acc_fusion.validation import check_choice
 
 ENGINES = ("batched", "filterpy")
@@ -78,9 +80,12 @@ class FilterBank(ABC):
 
 
 class BatchedBank(FilterBank):
-    """All filters in two contiguous arrays, updated by the numba kernels."""
+    """All filters in two contiguous arrays, updated by the numba kernels (whose state
+    dimension is :data:`~acc_fusion.models.STATE_DIM`, a compile-time constant)."""
 
     def __init__(self, n_filters: int, n_pairs: int, dim: int) -> None:
+        if dim != STATE_DIM:
+            raise ConfigError(f"the batched engine's filters have dimension {STATE_DIM}, got {dim}")
         super().__init__(n_filters, n_pairs, dim)
         self._x = np.zeros((n_filters, n_pairs, dim))
         self._p = np.tile(np.eye(dim), (n_filters, n_pairs, 1, 1))

@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.engines import ENGINES, Engine
 from acc_fusion.errors import ConfigError, InputError
@@ -308,21 +309,20 @@ class Estimator(ABC):
                     f"got {np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
                 )
         valid = np.array([m.valid for m in measurements], dtype=bool)
-        z = np.where(valid[..., None], [m.z for m in measurements], 0.0)
-        r = np.where(valid[..., None, None], [m.r for m in measurements], np.eye(2))
-        finite = np.isfinite(z).all(axis=(1, 2)) & np.isfinite(r).all(axis=(1, 2, 3))
+        z, r = np.empty((s, n, 2)), np.empty((s, n, 2, 2))
+        z_all = np.array([m.z for m in measurements], dtype=float)
+        r_all = np.array([m.r for m in measurements], dtype=float)
+        finite, low, positive = _gather(z_all, r_all, valid, z, r)
         if not finite.all():
             raise InputError(
                 f"{self._name(np.argmin(finite))} has NaN or inf in a valid measurement or its "
                 "covariance"
             )
-        low = z[:, :, 0].min(axis=1)
         if (low < 0).any():
             i = int(np.argmin(low))
             raise InputError(
                 f"{self._name(i)} has a negative range ({low[i]:g} m); ranges must be >= 0"
             )
-        positive = ((r[:, :, 0, 0] > 0) & (r[:, :, 1, 1] > 0)).all(axis=1)
         if not positive.all():
             raise InputError(
                 f"{self._name(np.argmin(positive))} has a non-positive measurement variance; it "
@@ -662,6 +662,32 @@ class SteadyStateFilter(Estimator):
         self.x += ((z[j] - self.x @ self.h.T) * upd[:, None]) @ self.gain.T
         self.since[upd] = 0
         return valid[j] & self.initialised
+
+
+@njit(cache=True)
+def _gather(z_in, r_in, valid, z, r):  # pragma: no cover - compiled
+    """The valid measurements ``z (S, N, 2)`` and covariances ``r (S, N, 2, 2)`` of every
+    sensor, zero and identity where not valid, in one pass; returns per sensor whether every
+    value is finite, the lowest range (0 without a valid one) and whether every variance is
+    positive."""
+    n_sensors, n_pairs = valid.shape
+    finite = np.ones(n_sensors, dtype=np.bool_)
+    low = np.zeros(n_sensors)
+    positive = np.ones(n_sensors, dtype=np.bool_)
+    for s in range(n_sensors):
+        for k in range(n_pairs):
+            ok = valid[s, k]
+            for a in range(2):
+                v = z_in[s, k, a] if ok else 0.0
+                z[s, k, a] = v
+                finite[s] &= np.isfinite(v)
+                for b in range(2):
+                    w = r_in[s, k, a, b] if ok else (1.0 if a == b else 0.0)
+                    r[s, k, a, b] = w
+                    finite[s] &= np.isfinite(w)
+            low[s] = min(low[s], z[s, k, 0])
+            positive[s] &= r[s, k, 0, 0] > 0 and r[s, k, 1, 1] > 0
+    return finite, low, positive
 
 
 def make_estimator(

@@ -61,6 +61,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
@@ -346,9 +347,15 @@ class Sensor:
                 )
         self.spec = spec
         self.faults = tuple(faults)
-        self._half_fov = math.radians(spec.fov_deg) / 2
+        # The spec's scalars in the order the kernels take them.
+        self._observe_params = (
+            spec.min_range, spec.max_range, math.radians(spec.fov_deg) / 2, spec.detection_prob,
+            spec.range_std, spec.range_std_quadratic, spec.range_rate_std,
+        )  # fmt: skip
+        self._emit_params = (spec.range_std, spec.range_std_quadratic, spec.range_rate_std**2)
         self._rng_noise, self._rng_ghost, self._rng_fault = _streams(seed)
         self.reset()
+        _warmup()
 
     def reset(self, seed: int | np.random.Generator | None = None) -> None:
         """Clear the state for a new run; with a ``seed``, also restart the random streams.
@@ -366,48 +373,44 @@ class Sensor:
         self._ghost_life: np.ndarray | None = None
 
     def measure(self, frame: TruthFrame) -> Measurement:
-        """Return the sensor's measurement of ``frame`` (``valid`` all False between samples)."""
+        """Return the sensor's measurement of ``frame`` (``valid`` all False between samples).
+
+        The random draws are made here, with fixed shapes, and the per-pair work is done by the
+        compiled kernels :func:`_observe` (visibility, clutter, true value, noise) and
+        :func:`_emit` (held value, output, declared R); the faults act in between.
+        """
         n, dt = self._start_frame(frame)
-        ghost_visible = self._advance_ghosts(frame, dt)
+        self._advance_ghosts(frame, dt)
         if not self._sample_due(frame.t):
             return _empty(frame.t, self.spec.name, n)
-        spec = self.spec
-        gap = frame.gap
-        with np.errstate(invalid="ignore"):
-            target_visible = (
-                frame.has_leader
-                & (gap >= spec.min_range)
-                & (gap <= spec.max_range)
-                & (np.abs(np.arctan2(frame.lateral_offset, gap)) <= self._half_fov)
-            )
-        use_ghost = ghost_visible & ~(target_visible & (gap <= self._ghost_range))
-        detected = self._rng_noise.random(n) < spec.detection_prob
+        detect_u = self._rng_noise.random(n)
         e = self._rng_noise.standard_normal((MEAS_DIM, n))
-        true_range = np.where(use_ghost, self._ghost_range, gap)
-        true_rate = np.where(use_ghost, -frame.ego_speed, frame.range_rate)
-        clean = Report(
-            z=np.stack([true_range, true_rate]).T,
-            valid=(target_visible | use_ghost) & detected,
-            ghost=use_ghost,
-        )
-        noise = (e * [[1.0], [spec.range_rate_std]]).T
-        noise[:, 0] *= spec.range_noise_std(true_range)
-        out = apply_faults(self.faults, frame.t, clean, noise, self._held, self._rng_fault)
-        valid = out.valid
-        self._held = Report(
-            z=np.where(valid[:, None], out.z, self._held.z),
-            valid=valid | self._held.valid,
-            ghost=np.where(valid, out.ghost, self._held.ghost),
-        )
-        z = np.where(valid[:, None], out.z, np.nan)
-        z[:, 0] = np.maximum(z[:, 0], 0.0)  # a range sensor cannot report a negative range
-        r = np.zeros((MEAS_DIM, MEAS_DIM, n))
-        r[0, 0] = np.where(valid, spec.range_noise_std(z[:, 0]) ** 2, 1.0)
-        r[1, 1] = np.where(valid, spec.range_rate_std**2, 1.0)
-        online = not any(f.kind == "dropout" and f.active(frame.t) for f in self.faults)
-        return Measurement(
-            frame.t, spec.name, z, r.transpose(2, 0, 1), valid, out.ghost & valid, online
-        )
+        # numpy's arctan2 (SIMD) and libm's may differ in the last bit: the bearings come from
+        # numpy, unless every offset is zero (the kernel then uses the exact atan2(0, gap)).
+        lat = frame.lateral_offset
+        bearing = np.arctan2(lat, frame.gap) if np.count_nonzero(lat) else None
+        clean, noise = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, n))
+        seen, seen_ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        _observe(
+            frame.gap, frame.leader_id, frame.ego_speed, frame.lead_speed, bearing,
+            self._ghost_range, self._ghost_life, detect_u, e, self._observe_params,
+            clean, noise, seen, seen_ghost,
+        )  # fmt: skip
+        active = [f for f in self.faults if f.active(frame.t)]
+        if active:
+            clean_report = Report(clean.T, seen, seen_ghost)
+            out = apply_faults(active, frame.t, clean_report, noise.T, self._held, self._rng_fault)
+        else:
+            out = Report((clean + noise).T, seen, seen_ghost)
+        held = self._held
+        z, r = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, MEAS_DIM, n))
+        valid, ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        _emit(
+            out.z.T, out.valid, out.ghost, held.z.T, held.valid, held.ghost, self._emit_params,
+            z, r, valid, ghost,
+        )  # fmt: skip
+        online = not any(f.kind == "dropout" for f in active)
+        return Measurement(frame.t, self.spec.name, z.T, r.transpose(2, 0, 1), valid, ghost, online)
 
     def _start_frame(self, frame: TruthFrame) -> tuple[int, float]:
         """Check N and time order against the previous frames; return N and the time step."""
@@ -435,28 +438,21 @@ class Sensor:
         self._t_prev = frame.t
         return n, dt
 
-    def _advance_ghosts(self, frame: TruthFrame, dt: float) -> np.ndarray:
-        r"""Move and age the clutter ghosts by ``dt``, spawn new ones; return the in-view mask.
+    def _advance_ghosts(self, frame: TruthFrame, dt: float) -> None:
+        r"""Move and age the clutter ghosts by ``dt`` and spawn new ones (in place).
 
         A pair spawns a ghost when its slot is free and at least one Poisson arrival falls in
-        the step, probability :math:`1 - e^{-\lambda\,dt}`.
+        the step, probability :math:`1 - e^{-\lambda\,dt}`.  Without clutter the slots stay
+        free (lifetime 0, range inf) and nothing is drawn.
         """
         spec = self.spec
         if spec.ghost_rate == 0.0:
-            return np.zeros(frame.n_pairs, dtype=bool)
+            return
         u = self._rng_ghost.random((3, frame.n_pairs))
-        life = self._ghost_life - dt
-        spawn = (life <= 0) & (u[0] < -math.expm1(-spec.ghost_rate * dt))
-        (r_lo, r_hi), (d_lo, d_hi) = spec.ghost_range, spec.ghost_duration
-        self._ghost_range = np.where(
-            spawn, r_lo + (r_hi - r_lo) * u[1], self._ghost_range - frame.ego_speed * dt
-        )
-        self._ghost_life = np.where(spawn, d_lo + (d_hi - d_lo) * u[2], life)
-        return (
-            (self._ghost_life > 0)
-            & (self._ghost_range >= spec.min_range)
-            & (self._ghost_range <= spec.max_range)
-        )
+        _move_ghosts(
+            u, frame.ego_speed, dt, -math.expm1(-spec.ghost_rate * dt), *spec.ghost_range,
+            *spec.ghost_duration, self._ghost_range, self._ghost_life,
+        )  # fmt: skip
 
     def _sample_due(self, t: float) -> bool:
         """Whether the sensor samples at frame time ``t``; advances the sample clock if so."""
@@ -473,11 +469,123 @@ def _empty(t: float, name: str, n: int) -> Measurement:
         t=t,
         sensor=name,
         z=np.full((MEAS_DIM, n), np.nan).T,
-        r=np.tile(np.eye(MEAS_DIM)[:, :, None], n).transpose(2, 0, 1),
+        r=np.eye(MEAS_DIM)[:, :, None].repeat(n, axis=2).transpose(2, 0, 1),
         valid=np.zeros(n, dtype=bool),
         ghost=np.zeros(n, dtype=bool),
         online=False,
     )
+
+
+def _warmup() -> None:
+    """Compile (or load from numba's cache) the kernels for frames of contiguous arrays.
+
+    :class:`Sensor` calls it on construction, so that its first :meth:`~Sensor.measure` costs
+    what the next ones do (other array types compile on first use).
+    """
+    x, flag, ids = np.zeros(1), np.zeros(1, dtype=bool), np.zeros(1, dtype=np.int64)
+    pair, cov = np.zeros((MEAS_DIM, 1)), np.zeros((MEAS_DIM, MEAS_DIM, 1))
+    _move_ghosts(np.zeros((3, 1)), x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x, x)
+    for bearing in (None, x):
+        _observe(x, ids, x, x, bearing, x, x, x, pair, (0.0,) * 7, pair, pair, flag, flag)
+    _emit(pair, flag, flag, pair, flag, flag, (0.0,) * 3, pair, cov, flag, flag)
+
+
+@njit(cache=True)
+def _move_ghosts(
+    u, ego_speed, dt, p_spawn, r_lo, r_hi, d_lo, d_hi, ghost_range, ghost_life
+):  # pragma: no cover - compiled
+    """Age every pair's ghost by ``dt`` and close it at ``ego_speed``, or spawn a new one.
+
+    A free slot (lifetime ``<= 0`` after ageing) spawns when ``u[0] < p_spawn``, at range
+    ``r_lo + (r_hi - r_lo) u[1]`` with lifetime ``d_lo + (d_hi - d_lo) u[2]``;
+    ``ghost_range`` and ``ghost_life`` ``(N,)`` are updated in place.
+    """
+    for i in range(ghost_life.size):
+        life = ghost_life[i] - dt
+        if life <= 0 and u[0, i] < p_spawn:
+            ghost_range[i] = r_lo + (r_hi - r_lo) * u[1, i]
+            ghost_life[i] = d_lo + (d_hi - d_lo) * u[2, i]
+        else:
+            ghost_range[i] = ghost_range[i] - ego_speed[i] * dt
+            ghost_life[i] = life
+
+
+@njit(cache=True)
+def _observe(
+    gap, leader_id, ego_speed, lead_speed, bearing, ghost_range, ghost_life, u, e, params,
+    clean, noise, seen, ghost,
+):  # pragma: no cover - compiled  # fmt: skip
+    """What the sensor sees of each pair, before faults (the model of the module docstring).
+
+    The target is visible with a leader, ``min_range <= gap <= max_range`` and
+    ``|bearing| <= half_fov`` (``bearing`` ``None``: every lateral offset is zero, the bearing
+    is ``atan2(0, gap)``); a live ghost in the range limits is reported instead unless the
+    visible target is closer.  A visible return is detected when ``u < detection_prob``.
+    Writes ``clean (2, N)`` the true [range, range-rate] of the reported object, ``noise
+    (2, N)`` the draw ``e`` scaled by ``[range_noise_std(true range), range_rate_std]``,
+    ``seen (N,)`` visible and detected, ``ghost (N,)`` the reported object is a ghost.
+    """
+    min_range, max_range, half_fov, detection_prob, range_std, quadratic, rate_std = params
+    for i in range(gap.size):
+        g = gap[i]
+        target = leader_id[i] >= 0 and g >= min_range and g <= max_range
+        if target:
+            if bearing is not None:
+                b = bearing[i]
+            else:  # atan2(0, g) is 0 for g > 0; g = +-0 gives 0 or pi
+                b = 0.0 if g > 0.0 else np.arctan2(0.0, g)
+            target = abs(b) <= half_fov
+        gr = ghost_range[i]
+        in_view = ghost_life[i] > 0 and gr >= min_range and gr <= max_range
+        use_ghost = in_view and not (target and g <= gr)
+        if use_ghost:
+            true_range, true_rate = gr, -ego_speed[i]
+        else:
+            true_range, true_rate = g, lead_speed[i] - ego_speed[i]
+        clean[0, i] = true_range
+        clean[1, i] = true_rate
+        noise[0, i] = e[0, i] * (range_std + quadratic * true_range * true_range)
+        noise[1, i] = e[1, i] * rate_std
+        seen[i] = (target or use_ghost) and u[i] < detection_prob
+        ghost[i] = use_ghost
+
+
+@njit(cache=True)
+def _emit(
+    out_z, out_valid, out_ghost, held_z, held_valid, held_ghost, params, z, r, valid, ghost
+):  # pragma: no cover - compiled
+    """Turn the (faulted) report ``out_*`` into the measurement; remember what was output.
+
+    Where ``out_valid``: ``held_*`` takes the report (in place), ``z (2, N)`` is the report
+    with the range clipped at 0 (a range sensor cannot report a negative range; as with
+    ``np.maximum``, NaN stays NaN and -0 becomes +0) and ``r (2, 2, N)`` is
+    ``diag(range_noise_std(z[0])**2, range_rate_std**2)``; elsewhere ``z`` is NaN and ``r``
+    the identity.  ``valid`` and ``ghost (N,)`` are the output flags.
+    """
+    range_std, quadratic, rate_var = params
+    for i in range(valid.size):
+        v = out_valid[i]
+        if v:
+            held_z[0, i] = out_z[0, i]
+            held_z[1, i] = out_z[1, i]
+            held_valid[i] = True
+            held_ghost[i] = out_ghost[i]
+            dist = out_z[0, i]
+            dist = 0.0 if dist <= 0.0 else dist
+            std = range_std + quadratic * dist * dist
+            z[0, i] = dist
+            z[1, i] = out_z[1, i]
+            r[0, 0, i] = std * std
+            r[1, 1, i] = rate_var
+        else:
+            z[0, i] = np.nan
+            z[1, i] = np.nan
+            r[0, 0, i] = 1.0
+            r[1, 1, i] = 1.0
+        r[0, 1, i] = 0.0
+        r[1, 0, i] = 0.0
+        valid[i] = v
+        ghost[i] = v and out_ghost[i]
 
 
 class RadarSensor(Sensor):
