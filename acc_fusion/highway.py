@@ -649,7 +649,7 @@ class HighwaySource(SlotSource):
         self._active = self._occupied.copy()
         self._active[slots] &= ~self._was_crashed[vi]
         self._was_crashed = crashed
-        self._frame = TruthFrame(
+        self._frame = TruthFrame.from_arrays(
             t=self._t,
             ego_speed=ego_v,
             ego_accel=ego_a,

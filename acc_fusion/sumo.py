@@ -965,7 +965,7 @@ class SumoSource(SlotSource):
                 pk = self._v_param
                 ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
                 self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
-        return TruthFrame(
+        return TruthFrame.from_arrays(
             t=self._t,
             ego_speed=ego_v,
             ego_accel=ego_a,

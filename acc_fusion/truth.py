@@ -63,6 +63,40 @@ class TruthFrame:
         lat = np.zeros(n) if self.lateral_offset is None else self.lateral_offset
         object.__setattr__(self, "lateral_offset", check_array("lateral_offset", lat, (n,)))
 
+    @classmethod
+    def from_arrays(
+        cls,
+        t: float,
+        ego_speed: np.ndarray,
+        ego_accel: np.ndarray,
+        gap: np.ndarray,
+        lead_speed: np.ndarray,
+        lead_accel: np.ndarray,
+        leader_id: np.ndarray,
+        lateral_offset: np.ndarray | None = None,
+    ) -> TruthFrame:
+        """A frame of arrays its source has built itself at this step, without the checks of
+        the constructor: float64 and int64 ``(N,)`` arrays, finite where used, taken as they
+        are (no copy; ``None``: no lateral offset).  For sources that build a frame at every
+        step (the checks cost about as much as a SUMO step's reads); anything else uses the
+        constructor."""
+        frame = object.__new__(cls)
+        values = {
+            "t": t,
+            "ego_speed": ego_speed,
+            "ego_accel": ego_accel,
+            "gap": gap,
+            "lead_speed": lead_speed,
+            "lead_accel": lead_accel,
+            "leader_id": leader_id,
+            "lateral_offset": (
+                np.zeros(leader_id.shape[0]) if lateral_offset is None else lateral_offset
+            ),
+        }
+        for name, value in values.items():
+            object.__setattr__(frame, name, value)
+        return frame
+
     @property
     def n_pairs(self) -> int:
         """Number of follower→leader pairs N."""
