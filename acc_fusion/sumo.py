@@ -887,7 +887,7 @@ class SumoSource(SlotSource):
     def _read(self) -> None:
         """Fill the frame from SUMO; a vehicle that left unannounced frees its slot."""
         if self._dirty:
-            occ = [i for i, v in enumerate(self._slot_vid) if v is not None]
+            occ = sorted(self._slot_of.values())
             self._occ_slots = np.asarray(occ, dtype=np.intp)
             self._occ_vids = [self._slot_vid[i] for i in occ]
             self._active = np.zeros(self.n_pairs, dtype=bool)
