@@ -52,6 +52,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.validation import check_array, check_range
@@ -151,7 +152,7 @@ class EgoMotionFilter:
     :math:`k`.  It predicts with the accelerometer reading of sample :math:`k-1` (yang2009
     eq. 14; the first step after a reset has no previous reading and only updates, so
     :math:`x_0, P_0` is the prior at the first sample), then updates with the wheel speed
-    where it is valid.  All vehicles are processed with array arithmetic.
+    where it is valid.  All vehicles are processed at once, in one compiled loop.
 
     >>> f = EgoMotionFilter(2, EgoFilterConfig.yang2009())
     >>> speed, bias = f.step([0.0, 0.0], [0.1, 0.2])
@@ -207,13 +208,21 @@ class EgoMotionFilter:
         dropout: the filter then coasts on the accelerometer).
         """
         n = self.n_vehicles
-        accel = check_array("accel_meas", accel_meas, (n,))
-        valid = self._mask("speed_valid", speed_valid)
-        speed = check_array("speed_meas", speed_meas, (n,), where=valid)
-        self._predict(self._has_prev)
-        self._update(np.where(valid, speed, self._v), valid)
-        self._prev_accel = accel
-        self._has_prev = np.ones(n, dtype=bool)
+        accel = np.asarray(accel_meas, dtype=float)
+        speed = np.asarray(speed_meas, dtype=float)
+        valid = np.ones(n, dtype=bool) if speed_valid is None else np.asarray(speed_valid)
+        if not (
+            accel.shape == speed.shape == valid.shape == (n,)
+            and valid.dtype == bool
+            and _usable(accel, speed, valid)
+        ):  # the checks raise the error of the first bad input
+            check_array("accel_meas", accel, (n,))
+            valid = self._mask("speed_valid", speed_valid)
+            check_array("speed_meas", speed, (n,), where=valid)
+        _step(
+            accel, speed, valid, self._dt, self._q_speed, self._q_bias, self._r, self._v,
+            self._b, self._p00, self._p01, self._p11, self._prev_accel, self._has_prev,
+        )  # fmt: skip
         return self._v.copy(), self._b.copy()
 
     @property
@@ -241,31 +250,48 @@ class EgoMotionFilter:
             )
         return arr
 
-    def _predict(self, sel: np.ndarray) -> None:
-        r""":math:`x^- = F x + B a_i(k-1)`, :math:`P^- = F P F^\top + Q` where ``sel``."""
-        dt = self._dt
-        v = self._v + dt * (self._prev_accel - self._b)
-        p00 = self._p00 - 2.0 * dt * self._p01 + dt * dt * self._p11 + self._q_speed
-        p01 = self._p01 - dt * self._p11
-        p11 = self._p11 + self._q_bias
-        self._v = np.where(sel, v, self._v)
-        self._p00 = np.where(sel, p00, self._p00)
-        self._p01 = np.where(sel, p01, self._p01)
-        self._p11 = np.where(sel, p11, self._p11)
 
-    def _update(self, speed: np.ndarray, sel: np.ndarray) -> None:
-        r""":math:`K = P^- H^\top / (H P^- H^\top + R)`, :math:`x = x^- + K (v_i - v^-)`,
-        :math:`P = (I - K H) P^-` where ``sel``."""
-        s = self._p00 + self._r
-        k0 = self._p00 / s
-        k1 = self._p01 / s
-        y = speed - self._v
-        self._v = np.where(sel, self._v + k0 * y, self._v)
-        self._b = np.where(sel, self._b + k1 * y, self._b)
-        p11 = self._p11 - k1 * self._p01
-        self._p00 = np.where(sel, self._p00 - k0 * self._p00, self._p00)
-        self._p01 = np.where(sel, self._p01 - k0 * self._p01, self._p01)
-        self._p11 = np.where(sel, p11, self._p11)
+@njit(cache=True)
+def _usable(accel, speed, valid):  # pragma: no cover - compiled
+    """True if ``accel`` is finite, and ``speed`` finite where ``valid`` (arrays ``(N,)``)."""
+    for i in range(valid.size):
+        if not np.isfinite(accel[i]) or (valid[i] and not np.isfinite(speed[i])):
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _step(
+    accel, speed, valid, dt, q_speed, q_bias, r, v, b, p00, p01, p11, prev_accel, has_prev
+):  # pragma: no cover - compiled
+    r"""One sample of :meth:`EgoMotionFilter.step` for every vehicle, in place.
+
+    Where ``has_prev``, predict: :math:`x^- = F x + B a_i(k-1)`, :math:`P^- = F P F^\top + Q`.
+    Where ``valid``, update with the wheel speed :math:`v_i(k)` = ``speed``:
+    :math:`K = P^- H^\top / (H P^- H^\top + R)`, :math:`x = x^- + K (v_i - v^-)`,
+    :math:`P = (I - K H) P^-`.  Then ``accel`` becomes :math:`a_i(k-1)` of the next sample.
+    (``error_model="numpy"``: IEEE division as in numpy, which lets the loop vectorise.)
+    """
+    for i in range(v.size):
+        vi, bi, p00i, p01i, p11i = v[i], b[i], p00[i], p01[i], p11[i]
+        if has_prev[i]:
+            vi = vi + dt * (prev_accel[i] - bi)
+            p00i = p00i - 2.0 * dt * p01i + dt * dt * p11i + q_speed
+            p01i = p01i - dt * p11i
+            p11i = p11i + q_bias
+        if valid[i]:
+            s = p00i + r
+            k0 = p00i / s
+            k1 = p01i / s
+            y = speed[i] - vi
+            vi = vi + k0 * y
+            bi = bi + k1 * y
+            p11i = p11i - k1 * p01i
+            p00i = p00i - k0 * p00i
+            p01i = p01i - k0 * p01i
+        v[i], b[i], p00[i], p01[i], p11[i] = vi, bi, p00i, p01i, p11i
+        prev_accel[i] = accel[i]
+        has_prev[i] = True
 
 
 @dataclass(frozen=True)

@@ -68,6 +68,7 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.stats import Distribution, Histogram, Rate
@@ -87,7 +88,8 @@ class _Events:
     """Per-pair state of one kind of event (warnings or threats); see the module docstring.
 
     ``on``: the flag was set at the last step; ``live``, ``matched``: the pair's current
-    event; ``start``: its onset time; ``end``: the end of its last closed interval.
+    event; ``start``: its onset time; ``end``: the end of its last closed interval.  A step
+    is :func:`_event_step`.
     """
 
     def __init__(self, n_pairs: int) -> None:
@@ -97,23 +99,10 @@ class _Events:
         self.start = np.zeros(n_pairs)
         self.end = np.zeros(n_pairs)
 
-    def step(self, t: float, now: np.ndarray, horizon: float) -> tuple[np.ndarray, np.ndarray]:
-        """Advance to time ``t`` with the flags ``now``.
-
-        Returns the pairs whose new event starts at ``t`` and the pairs whose unmatched event
-        stopped being live (its tail passed ``horizon`` after its last interval).
-        """
-        held = self.on & now
-        self.end[self.on & ~now] = t
-        expired = self.live & ~held & (t - self.end > horizon)
-        unmatched = expired & ~self.matched
-        self.live &= ~expired
-        new = now & ~self.on & ~self.live
-        self.live |= new
-        self.matched[new] = False
-        self.start[new] = t
-        self.on[:] = now
-        return new, unmatched
+    @property
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """``(on, live, matched, start, end)``, what :func:`_event_step` advances."""
+        return self.on, self.live, self.matched, self.start, self.end
 
     def finish(self) -> np.ndarray:
         """End every event; returns the pairs whose event was unmatched."""
@@ -251,8 +240,8 @@ class FCWMetrics:
         self._onset_ttc = np.zeros(self.n_pairs)
         self._collided = np.zeros(self.n_pairs, dtype=bool)
         self._last_t = -math.inf
-        self._count = dict.fromkeys(_COUNTS, 0)
-        self._pair_count = {name: np.zeros(self.n_pairs, dtype=np.int64) for name in _COUNTS}
+        self._counts = np.zeros(len(_COUNTS), dtype=np.int64)  # in the order of _COUNTS
+        self._pair_counts = np.zeros((len(_COUNTS), self.n_pairs), dtype=np.int64)
         self._pair_driven_s = np.zeros(self.n_pairs)
         self._pair_distance_m = np.zeros(self.n_pairs)
         self._pair_lead_time_s = np.zeros(self.n_pairs)
@@ -262,6 +251,8 @@ class FCWMetrics:
         self._lead_time = Histogram(*LEAD_TIME_BINS)
         self._ttc_matched = Histogram(*TTC_BINS)
         self._ttc_all = Histogram(*TTC_BINS)
+        # One step's values: TTC at new warnings, at matched warnings, lead times, speeds.
+        self._values = np.empty((4, self.n_pairs))
 
     def _levels(self, name: str, value: object) -> np.ndarray:
         arr = np.asarray(value)
@@ -313,61 +304,51 @@ class FCWMetrics:
             collided: pairs that collided at this step (default: none).
         """
         t = self._check_time(t)
-        system = self._levels("system", system)
-        oracle = self._levels("oracle", oracle)
-        active = self._mask("active", active)
-        ttc = check_array("ttc", ttc, (self.n_pairs,), finite=False, nonnegative=True, where=active)
-        if np.isnan(ttc[active]).any():
-            raise InputError("ttc must be a number >= 0 or inf where active, got NaN")
-        speed = check_array("speed", speed, (self.n_pairs,), nonnegative=True, where=active)
-        collided = (
-            np.zeros(self.n_pairs, dtype=bool)
-            if collided is None
-            else self._mask("collided", collided)
-        )
+        n = self.n_pairs
+        system, oracle, active = np.asarray(system), np.asarray(oracle), np.asarray(active)
+        ttc, speed = np.asarray(ttc, dtype=float), np.asarray(speed, dtype=float)
+        collided = np.zeros(n, dtype=bool) if collided is None else np.asarray(collided)
+        if not (
+            system.shape == oracle.shape == ttc.shape == speed.shape == (n,)
+            and active.shape == collided.shape == (n,)
+            and system.dtype.kind in "iu"
+            and oracle.dtype.kind in "iu"
+            and active.dtype == collided.dtype == bool
+            and _usable(system, oracle, ttc, speed, active)
+        ):
+            self._check(system, oracle, ttc, speed, active, collided)  # raises
         self._last_t = t
 
-        warn_new, false_alarms = self._warnings.step(
-            t, active & (system >= self.warn_level), self._horizon
-        )
-        threat_new, missed = self._threats.step(
-            t, active & (oracle >= self.warn_level), self._horizon
-        )
-        self._onset_ttc[warn_new] = ttc[warn_new]
-        self._ttc_all.add(ttc[warn_new])
-
-        both = self._warnings.live & self._threats.live
-        warn_matched = both & ~self._warnings.matched
-        threat_matched = both & ~self._threats.matched
-        self._warnings.matched |= both
-        self._threats.matched |= both
-        self._ttc_matched.add(self._onset_ttc[warn_matched])
-        lead = self._threats.start[threat_matched] - self._warnings.start[threat_matched]
-        self._lead_time.add(lead)
-        self._pair_lead_time_s[threat_matched] += lead
-
-        n_active = int(np.count_nonzero(active))
-        cells = 3 * oracle[active].astype(np.intp) + system[active]
-        self._confusion += np.bincount(cells, minlength=9).reshape(3, 3)
+        values = self._values
+        n_active, n_new, n_matched, n_lead = _record(
+            t, system, oracle, ttc, speed, active, collided, self.warn_level, self._horizon,
+            self.dt, *self._warnings.arrays, *self._threats.arrays, self._onset_ttc,
+            self._collided, self._counts, self._pair_counts, self._pair_driven_s,
+            self._pair_distance_m, self._pair_lead_time_s, self._confusion, values,
+        )  # fmt: skip
+        self._ttc_all.add(values[0, :n_new])
+        self._ttc_matched.add(values[1, :n_matched])
+        self._lead_time.add(values[2, :n_lead])
         self._driven_s += n_active * self.dt
-        self._distance_m += float(speed[active].sum()) * self.dt
-        self._pair_driven_s[active] += self.dt
-        self._pair_distance_m[active] += speed[active] * self.dt
-        self._add(
-            warnings=warn_new,
-            threats=threat_new,
-            detected=threat_matched,
-            false_alarms=false_alarms,
-            missed=missed,
-            collisions=collided & ~self._collided,
-        )
-        self._collided[:] = collided
+        self._distance_m += float(values[3, :n_active].sum()) * self.dt
+
+    def _check(self, system, oracle, ttc, speed, active, collided) -> None:
+        """Raise the error of the first bad input of :meth:`update`."""
+        self._levels("system", system)
+        self._levels("oracle", oracle)
+        self._mask("active", active)
+        check_array("ttc", ttc, (self.n_pairs,), finite=False, nonnegative=True, where=active)
+        if np.isnan(ttc[active]).any():
+            raise InputError("ttc must be a number >= 0 or inf where active, got NaN")
+        check_array("speed", speed, (self.n_pairs,), nonnegative=True, where=active)
+        self._mask("collided", collided)
 
     def _add(self, **events: np.ndarray) -> None:
         """Count the events of each kind (boolean masks over the pairs), in total and per pair."""
         for name, mask in events.items():
-            self._count[name] += int(np.count_nonzero(mask))
-            self._pair_count[name] += mask
+            i = _COUNTS.index(name)
+            self._counts[i] += np.count_nonzero(mask)
+            self._pair_counts[i] += mask
 
     def finish(self, t: float) -> None:
         """End the run at time ``t`` (>= the last step's time): resolve every open event.
@@ -394,8 +375,7 @@ class FCWMetrics:
             )
         if other._warnings.live.any() or other._threats.live.any():
             raise InputError("merge needs a finished instance: call finish(t) on it first")
-        for name in _COUNTS:
-            self._count[name] += other._count[name]
+        self._counts += other._counts
         self._driven_s += other._driven_s
         self._distance_m += other._distance_m
         self._confusion += other._confusion
@@ -411,7 +391,7 @@ class FCWMetrics:
         ``lead_time_sum_s``, the sum of the lead times [s] of the pair's detected threats.
         """
         return {
-            **{name: c.copy() for name, c in self._pair_count.items()},
+            **{name: c.copy() for name, c in zip(_COUNTS, self._pair_counts, strict=True)},
             "hours": self._pair_driven_s / 3600.0,
             "km": self._pair_distance_m / 1000.0,
             "lead_time_sum_s": self._pair_lead_time_s.copy(),
@@ -419,7 +399,7 @@ class FCWMetrics:
 
     def summary(self, confidence: float = 0.95) -> FCWSummary:
         """The metrics so far (complete after :meth:`finish`), intervals at ``confidence``."""
-        count = self._count
+        count = dict(zip(_COUNTS, self._counts.tolist(), strict=True))
         hours = self._driven_s / 3600.0
         km = self._distance_m / 1000.0
         return FCWSummary(
@@ -436,3 +416,95 @@ class FCWMetrics:
             confusion=tuple(tuple(row) for row in self._confusion.tolist()),
             per_pair=self.per_pair(),
         )
+
+
+@njit(cache=True)
+def _usable(system, oracle, ttc, speed, active):  # pragma: no cover - compiled
+    """True if the levels are 0, 1 or 2 and, where ``active``, ``ttc`` is a number >= 0 or inf
+    and ``speed`` a finite number >= 0 (the checks of :meth:`FCWMetrics.update`)."""
+    for i in range(active.size):
+        if not (0 <= system[i] <= 2 and 0 <= oracle[i] <= 2):
+            return False
+        if active[i] and not (ttc[i] >= 0.0 and np.isfinite(speed[i]) and speed[i] >= 0.0):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _event_step(t, now, horizon, on, live, matched, start, end):  # pragma: no cover - compiled
+    """Advance one pair's event of one kind (:class:`_Events`) to time ``t`` with the flag
+    ``now``.
+
+    Takes and returns the pair's ``(on, live, matched, start, end)``, preceded on return by
+    whether a new event starts at ``t`` and whether an unmatched event stopped being live
+    (its tail passed ``horizon`` after its last interval).
+    """
+    held = on and now
+    if on and not now:
+        end = t
+    expired = live and not held and t - end > horizon
+    unmatched = expired and not matched
+    live = live and not expired
+    new = now and not on and not live
+    if new:
+        live, matched, start = True, False, t
+    return new, unmatched, now, live, matched, start, end
+
+
+@njit(cache=True)
+def _record(
+    t, system, oracle, ttc, speed, active, collided, warn_level, horizon, dt,
+    w_on, w_live, w_matched, w_start, w_end, h_on, h_live, h_matched, h_start, h_end,
+    onset_ttc, was_collided, counts, pair_counts, pair_driven_s, pair_distance_m,
+    pair_lead_time_s, confusion, values,
+):  # pragma: no cover - compiled  # fmt: skip
+    """One step of :meth:`FCWMetrics.update` on checked inputs, in place (``w_*``: the
+    warnings, ``h_*``: the threats, as :class:`_Events`; counts in the order of ``_COUNTS``).
+
+    Rows 0 to 3 of ``values`` receive, in the order of the pairs, the TTC at the new warnings,
+    the onset TTC of the newly matched warnings, the lead times of the newly detected threats
+    and the speeds of the active pairs; returns how many of each, the last being the number
+    of active pairs.
+    """
+    n_new = n_matched = n_lead = n_active = 0
+    for i in range(active.size):
+        warns = active[i] and system[i] >= warn_level
+        threatened = active[i] and oracle[i] >= warn_level
+        warn_new, false_alarm, w_on[i], w_live[i], w_matched[i], w_start[i], w_end[i] = _event_step(
+            t, warns, horizon, w_on[i], w_live[i], w_matched[i], w_start[i], w_end[i]
+        )
+        threat_new, missed, h_on[i], h_live[i], h_matched[i], h_start[i], h_end[i] = _event_step(
+            t, threatened, horizon, h_on[i], h_live[i], h_matched[i], h_start[i], h_end[i]
+        )
+        if warn_new:
+            onset_ttc[i] = ttc[i]
+            values[0, n_new] = ttc[i]
+            n_new += 1
+        both = w_live[i] and h_live[i]
+        warn_matched = both and not w_matched[i]
+        detected = both and not h_matched[i]
+        if both:
+            w_matched[i] = True
+            h_matched[i] = True
+        if warn_matched:
+            values[1, n_matched] = onset_ttc[i]
+            n_matched += 1
+        if detected:
+            lead = h_start[i] - w_start[i]
+            values[2, n_lead] = lead
+            n_lead += 1
+            pair_lead_time_s[i] += lead
+        if active[i]:
+            confusion[oracle[i], system[i]] += 1
+            values[3, n_active] = speed[i]
+            n_active += 1
+            pair_driven_s[i] += dt
+            pair_distance_m[i] += speed[i] * dt
+        collision = collided[i] and not was_collided[i]
+        was_collided[i] = collided[i]
+        events = (warn_new, false_alarm, threat_new, detected, missed, collision)
+        for k in range(len(events)):
+            if events[k]:
+                counts[k] += 1
+                pair_counts[k, i] += 1
+    return n_active, n_new, n_matched, n_lead

@@ -48,6 +48,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.validation import check_array, check_choice, check_range
@@ -93,27 +94,50 @@ def _resolve(params: object | None, cls: type, model: str):
     return params
 
 
-def _kinematics(v_ego, v_rel, a_lead) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Validate and broadcast the inputs; return ``(v, v_lead, v_closing, lead_decel)``."""
+def _kinematics(v_ego, v_rel, a_lead) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate and broadcast the inputs; return them as arrays ``(N,)``."""
     v = check_array("v_ego", v_ego, nonnegative=True)
     rel = check_array("v_rel", v_rel)
     acc = check_array("a_lead", a_lead)
     try:
-        v, rel, acc = np.broadcast_arrays(np.atleast_1d(v), np.atleast_1d(rel), np.atleast_1d(acc))
+        shape = np.broadcast(v, rel, acc).shape or (1,)  # scalars give (1,)
     except ValueError:
         raise InputError(
             "v_ego, v_rel and a_lead must be scalars or arrays of one length N, got shapes "
             f"{np.shape(v_ego)}, {np.shape(v_rel)} and {np.shape(a_lead)}"
         ) from None
-    if v.ndim != 1:
-        raise InputError(f"v_ego, v_rel and a_lead must be 1-D (N,), got shape {v.shape}")
-    return v, np.maximum(v + rel, 0.0), -rel, np.maximum(-acc, 0.0)
+    if len(shape) != 1:
+        raise InputError(f"v_ego, v_rel and a_lead must be 1-D (N,), got shape {shape}")
+    return np.broadcast_to(v, shape), np.broadcast_to(rel, shape), np.broadcast_to(acc, shape)
 
 
-def _levels(d_caution: np.ndarray, d_imminent: np.ndarray) -> Distances:
+def _distances(name: str, v_ego, v_rel, a_lead, params: object | None) -> Distances:
+    """The safety model ``name`` on checked inputs (the body of every model function)."""
+    model, c = model_constants(name, params)
+    return distances_unchecked(model, c, *_kinematics(v_ego, v_rel, a_lead))
+
+
+# Kernels that divide use error_model="numpy": IEEE division as in numpy, without the checks
+# for a zero divisor that would raise ZeroDivisionError (and keep loops from vectorising).
+
+
+@njit(cache=True)
+def _maximum(a, b):  # pragma: no cover - compiled
+    """``np.maximum`` of two floats: NaN if either is NaN, else the larger (``b`` if equal)."""
+    return a if a > b or a != a else b
+
+
+@njit(cache=True)
+def _minimum(a, b):  # pragma: no cover - compiled
+    """``np.minimum`` of two floats: NaN if either is NaN, else the smaller (``b`` if equal)."""
+    return a if a < b or a != a else b
+
+
+@njit(cache=True)
+def _levels(d_caution, d_imminent):  # pragma: no cover - compiled
     """Clip at 0 and make imminent imply caution: ``0 <= d_imminent <= d_caution``."""
-    d_imminent = np.maximum(d_imminent, 0.0)
-    return np.maximum(d_caution, d_imminent), d_imminent
+    d_imminent = _maximum(d_imminent, 0.0)
+    return _maximum(d_caution, d_imminent), d_imminent
 
 
 # --------------------------------------------------------------------------------------------
@@ -143,6 +167,9 @@ class TimeHeadwayParams:
         _check_lengths("time_headway", self, "d0")
         _check_order("time_headway", self, "headway_imminent", "headway_caution")
 
+    def _constants(self) -> tuple[float, ...]:
+        return self.headway_caution, self.headway_imminent, self.d0
+
 
 def time_headway(v_ego, v_rel, a_lead=0.0, params: TimeHeadwayParams | None = None) -> Distances:
     r"""Constant time-headway distance (the two-second rule).
@@ -153,9 +180,14 @@ def time_headway(v_ego, v_rel, a_lead=0.0, params: TimeHeadwayParams | None = No
     Source: the two-second rule of driver training (Vogel 2003, §1; see
     :class:`TimeHeadwayParams` for the defaults).
     """
-    p = _resolve(params, TimeHeadwayParams, "time_headway")
-    v, _, _, _ = _kinematics(v_ego, v_rel, a_lead)
-    return _levels(p.d0 + p.headway_caution * v, p.d0 + p.headway_imminent * v)
+    return _distances("time_headway", v_ego, v_rel, a_lead, params)
+
+
+@njit(cache=True)
+def _time_headway(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`time_headway` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    headway_caution, headway_imminent, d0 = c[:3]
+    return d0 + headway_caution * v, d0 + headway_imminent * v
 
 
 # --------------------------------------------------------------------------------------------
@@ -188,6 +220,9 @@ class TTCParams:
         _check_lengths("ttc", self, "d0")
         _check_order("ttc", self, "ttc_imminent", "ttc_caution")
 
+    def _constants(self) -> tuple[float, ...]:
+        return self.ttc_caution, self.ttc_imminent, self.d0
+
 
 def ttc(v_ego, v_rel, a_lead=0.0, params: TTCParams | None = None) -> Distances:
     r"""Time-to-collision threshold in distance form.
@@ -197,10 +232,15 @@ def ttc(v_ego, v_rel, a_lead=0.0, params: TTCParams | None = None) -> Distances:
     With :math:`d_0 = 0`, ``gap < d_L`` is exactly :math:`\mathrm{TTC} = g / v_c < T_L`;
     nothing is raised while the gap opens.  Sources: see :class:`TTCParams`.
     """
-    p = _resolve(params, TTCParams, "ttc")
-    _, _, vc, _ = _kinematics(v_ego, v_rel, a_lead)
-    closing = np.maximum(vc, 0.0)
-    return _levels(p.ttc_caution * closing + p.d0, p.ttc_imminent * closing + p.d0)
+    return _distances("ttc", v_ego, v_rel, a_lead, params)
+
+
+@njit(cache=True)
+def _ttc(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`ttc` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    ttc_caution, ttc_imminent, d0 = c[:3]
+    closing = _maximum(vc, 0.0)
+    return ttc_caution * closing + d0, ttc_imminent * closing + d0
 
 
 # --------------------------------------------------------------------------------------------
@@ -246,6 +286,16 @@ class StoppingDistanceParams:
         _check_order(p, self, "reaction_imminent", "reaction_caution")
         _check_order(p, self, "decel_caution", "decel_imminent")
 
+    def _constants(self) -> tuple[float, ...]:
+        return (
+            self.reaction_caution,
+            self.decel_caution,
+            self.reaction_imminent,
+            self.decel_imminent,
+            self.lead_decel,
+            self.d0,
+        )
+
 
 def stopping_distance(
     v_ego, v_rel, a_lead=0.0, params: StoppingDistanceParams | None = None
@@ -264,15 +314,17 @@ def stopping_distance(
     separate ego and lead speeds).  Caution: a surprised driver braking firmly; imminent: an
     alert driver braking fully (defaults and sources in :class:`StoppingDistanceParams`).
     """
-    p = _resolve(params, StoppingDistanceParams, "stopping_distance")
-    v, vl, _, _ = _kinematics(v_ego, v_rel, a_lead)
-    lead_stop = vl**2 / (2.0 * p.lead_decel)
+    return _distances("stopping_distance", v_ego, v_rel, a_lead, params)
 
-    def level(t_r: float, a: float) -> np.ndarray:
-        return np.maximum(v * t_r + v**2 / (2.0 * a) - lead_stop, 0.0) + p.d0
 
-    return _levels(
-        level(p.reaction_caution, p.decel_caution), level(p.reaction_imminent, p.decel_imminent)
+@njit(cache=True, error_model="numpy")
+def _stopping_distance(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`stopping_distance` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    reaction_caution, decel_caution, reaction_imminent, decel_imminent, lead_decel, d0 = c
+    lead_stop = vl * vl / (2.0 * lead_decel)
+    return (
+        _maximum(v * reaction_caution + v * v / (2.0 * decel_caution) - lead_stop, 0.0) + d0,
+        _maximum(v * reaction_imminent + v * v / (2.0 * decel_imminent) - lead_stop, 0.0) + d0,
     )
 
 
@@ -308,6 +360,9 @@ class MazdaParams:
         _check_lengths("mazda", self, "d0")
         _check_order("mazda", self, "tau2_imminent", "tau2")
 
+    def _constants(self) -> tuple[float, ...]:
+        return self.alpha1, self.alpha2, self.tau1, self.tau2, self.tau2_imminent, self.d0
+
 
 def mazda(v_ego, v_rel, a_lead=0.0, params: MazdaParams | None = None) -> Distances:
     r"""Mazda's critical braking distance (Doi, Butsuen, Niibe, Takagi, Yamamoto & Seni,
@@ -324,10 +379,15 @@ def mazda(v_ego, v_rel, a_lead=0.0, params: MazdaParams | None = None) -> Distan
     :math:`v - v_c` is the lead speed :math:`v_l`.  Caution uses the driver delay
     :math:`\tau_2`, imminent ``tau2_imminent`` (see :class:`MazdaParams`).
     """
-    p = _resolve(params, MazdaParams, "mazda")
-    v, vl, vc, _ = _kinematics(v_ego, v_rel, a_lead)
-    base = 0.5 * (v**2 / p.alpha1 - vl**2 / p.alpha2) + v * p.tau1 + p.d0
-    return _levels(base + vc * p.tau2, base + vc * p.tau2_imminent)
+    return _distances("mazda", v_ego, v_rel, a_lead, params)
+
+
+@njit(cache=True, error_model="numpy")
+def _mazda(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`mazda` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    alpha1, alpha2, tau1, tau2, tau2_imminent, d0 = c
+    base = 0.5 * (v * v / alpha1 - vl * vl / alpha2) + v * tau1 + d0
+    return base + vc * tau2, base + vc * tau2_imminent
 
 
 # --------------------------------------------------------------------------------------------
@@ -361,6 +421,18 @@ class HondaParams:
         _check_decels("honda", self, "a1", "a2")
         _check_order("honda", self, "tau1", "tau2")
 
+    def _constants(self) -> tuple[float, ...]:
+        """The parameters, then the ego's braking term and the lead's travel term of
+        :math:`d_{br}` (parameters only, computed once)."""
+        return (
+            self.warning_gain,
+            self.warning_offset,
+            self.a2,
+            self.tau2,
+            0.5 * self.a1 * (self.tau2 - self.tau1) ** 2,
+            0.5 * self.a2 * self.tau2**2,
+        )
+
 
 def honda(v_ego, v_rel, a_lead=0.0, params: HondaParams | None = None) -> Distances:
     r"""Honda's warning and braking distances (Fujita, Akuzawa & Sato, "Radar brake system",
@@ -382,12 +454,17 @@ def honda(v_ego, v_rel, a_lead=0.0, params: HondaParams | None = None) -> Distan
     :math:`v\tau_2 - \tfrac12 a_1(\tau_2-\tau_1)^2 - (v_l\tau_2 - \tfrac12 a_2\tau_2^2)`, which
     is Fujita's expression when :math:`a_1 = a_2` (the published 7.8 m/s²).
     """
-    p = _resolve(params, HondaParams, "honda")
-    v, vl, vc, _ = _kinematics(v_ego, v_rel, a_lead)
-    ego_travel = v * p.tau2 - 0.5 * p.a1 * (p.tau2 - p.tau1) ** 2
-    moving = vl >= p.a2 * p.tau2
-    lead_travel = np.where(moving, vl * p.tau2 - 0.5 * p.a2 * p.tau2**2, vl**2 / (2.0 * p.a2))
-    return _levels(p.warning_gain * vc + p.warning_offset, ego_travel - lead_travel)
+    return _distances("honda", v_ego, v_rel, a_lead, params)
+
+
+@njit(cache=True, error_model="numpy")
+def _honda(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`honda` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    warning_gain, warning_offset, a2, tau2, ego_braking, lead_braking = c
+    ego_travel = v * tau2 - ego_braking
+    moving = vl >= a2 * tau2
+    lead_travel = vl * tau2 - lead_braking if moving else vl * vl / (2.0 * a2)
+    return warning_gain * vc + warning_offset, ego_travel - lead_travel
 
 
 # --------------------------------------------------------------------------------------------
@@ -414,6 +491,10 @@ class BerkeleyParams:
         _check_times("berkeley", self, "tau")
         _check_lengths("berkeley", self, "d0")
 
+    def _constants(self) -> tuple[float, ...]:
+        r"""The parameters, then :math:`\tfrac12 a\tau^2` (computed once)."""
+        return self.decel, self.tau, self.d0, 0.5 * self.decel * self.tau**2
+
 
 def berkeley(v_ego, v_rel, a_lead=0.0, params: BerkeleyParams | None = None) -> Distances:
     r"""The PATH warning and braking distances (Seiler, Song & Hedrick, "Development of a
@@ -429,11 +510,16 @@ def berkeley(v_ego, v_rel, a_lead=0.0, params: BerkeleyParams | None = None) -> 
     :math:`d_w` compares both vehicles braking at ``a`` after the ego's delay ``τ``;
     :math:`d_{br}` is how much the gap closes during ``τ`` when the lead brakes at ``a``.
     """
-    p = _resolve(params, BerkeleyParams, "berkeley")
-    v, vl, vc, _ = _kinematics(v_ego, v_rel, a_lead)
-    d_w = 0.5 * (v**2 - vl**2) / p.decel + v * p.tau + p.d0
-    d_br = vc * p.tau + 0.5 * p.decel * p.tau**2
-    return _levels(d_w, d_br)
+    return _distances("berkeley", v_ego, v_rel, a_lead, params)
+
+
+@njit(cache=True, error_model="numpy")
+def _berkeley(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`berkeley` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    decel, tau, d0, lead_braking = c[:4]
+    d_w = 0.5 * (v * v - vl * vl) / decel + v * tau + d0
+    d_br = vc * tau + lead_braking
+    return d_w, d_br
 
 
 # --------------------------------------------------------------------------------------------
@@ -471,6 +557,18 @@ class RSSParams:
         _check_decels("rss", self, "brake_min", "brake_min_imminent", "brake_max")
         _check_order("rss", self, "brake_min", "brake_min_imminent")
 
+    def _constants(self) -> tuple[float, ...]:
+        r"""The parameters, then the distance :math:`\tfrac12 a_\text{accel,max}\rho^2` the
+        acceleration adds during ρ (computed once)."""
+        return (
+            self.response_time,
+            self.accel_max,
+            self.brake_min,
+            self.brake_min_imminent,
+            self.brake_max,
+            0.5 * self.accel_max * self.response_time**2,
+        )
+
 
 def rss(v_ego, v_rel, a_lead=0.0, params: RSSParams | None = None) -> Distances:
     r"""RSS minimal safe longitudinal distance (Shalev-Shwartz, Shammah & Shashua, "On a formal
@@ -487,16 +585,20 @@ def rss(v_ego, v_rel, a_lead=0.0, params: RSSParams | None = None) -> Distances:
     at up to :math:`a_\text{brake,max}`.  Caution uses ``brake_min``, imminent the harder
     ``brake_min_imminent`` (defaults in :class:`RSSParams`).
     """
-    p = _resolve(params, RSSParams, "rss")
-    v, vl, _, _ = _kinematics(v_ego, v_rel, a_lead)
-    reaction = v * p.response_time + 0.5 * p.accel_max * p.response_time**2
-    v_after = v + p.response_time * p.accel_max
-    lead_stop = vl**2 / (2.0 * p.brake_max)
+    return _distances("rss", v_ego, v_rel, a_lead, params)
 
-    def level(brake_min: float) -> np.ndarray:
-        return reaction + v_after**2 / (2.0 * brake_min) - lead_stop
 
-    return _levels(level(p.brake_min), level(p.brake_min_imminent))
+@njit(cache=True, error_model="numpy")
+def _rss(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`rss` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
+    response_time, accel_max, brake_min, brake_min_imminent, brake_max, accel_travel = c
+    reaction = v * response_time + accel_travel
+    v_after = v + response_time * accel_max
+    lead_stop = vl * vl / (2.0 * brake_max)
+    return (
+        reaction + v_after * v_after / (2.0 * brake_min) - lead_stop,
+        reaction + v_after * v_after / (2.0 * brake_min_imminent) - lead_stop,
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -532,11 +634,13 @@ class RequiredDecelerationParams:
         _check_lengths(p, self, "d0")
         _check_order(p, self, "decel_caution", "decel_imminent")
 
+    def _constants(self) -> tuple[float, ...]:
+        return self.reaction_time, self.decel_caution, self.decel_imminent, self.d0
 
-def _closest_approach(
-    v: np.ndarray, vl: np.ndarray, b: np.ndarray, t_r: float, a: float
-) -> np.ndarray:
-    r"""Largest closing :math:`\max_t [x_\text{ego}(t) - x_\text{lead}(t)]` (``(N,)``, >= 0).
+
+@njit(cache=True, error_model="numpy")
+def _closest_approach(v, vl, b, t_r, a):  # pragma: no cover - compiled
+    r"""Largest closing :math:`\max_t [x_\text{ego}(t) - x_\text{lead}(t)]` of one pair (>= 0).
 
     The ego keeps ``v`` for ``t_r`` then brakes at ``a`` to a stop; the lead brakes at ``b``
     (``0`` = constant speed) from ``vl`` to a stop.  The closing is piecewise quadratic in t,
@@ -544,16 +648,22 @@ def _closest_approach(
     both brake at equal speed, :math:`t^* = (v_l - v - a t_r)/(b - a)`.
     """
     t_ego_stop = t_r + v / a
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_lead_stop = np.where(b > 0, vl / b, np.inf)
-        t_star = np.where(b != a, (vl - v - a * t_r) / (b - a), t_r)
-    t_star = np.clip(t_star, t_r, t_ego_stop)
-    t = np.stack([np.full_like(v, t_r), np.minimum(t_lead_stop, t_ego_stop), t_ego_stop, t_star])
-    braking = np.clip(t - t_r, 0.0, v / a)
-    x_ego = v * np.minimum(t, t_r) + v * braking - 0.5 * a * braking**2
-    s = np.minimum(t, t_lead_stop)
-    x_lead = vl * s - 0.5 * b * s**2
-    return np.maximum((x_ego - x_lead).max(axis=0), 0.0)
+    t_lead_stop = vl / b if b > 0 else np.inf
+    t_star = (vl - v - a * t_r) / (b - a) if b != a else t_r
+    t_star = _minimum(_maximum(t_star, t_r), t_ego_stop)
+    closing = _closing(t_r, v, vl, b, t_r, a, t_lead_stop)
+    for t in (_minimum(t_lead_stop, t_ego_stop), t_ego_stop, t_star):
+        closing = _maximum(closing, _closing(t, v, vl, b, t_r, a, t_lead_stop))
+    return _maximum(closing, 0.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _closing(t, v, vl, b, t_r, a, t_lead_stop):  # pragma: no cover - compiled
+    r""":math:`x_\text{ego}(t) - x_\text{lead}(t)` of :func:`_closest_approach`."""
+    braking = _minimum(_maximum(t - t_r, 0.0), v / a)
+    x_ego = v * _minimum(t, t_r) + v * braking - 0.5 * a * (braking * braking)
+    s = _minimum(t, t_lead_stop)
+    return x_ego - (vl * s - 0.5 * b * (s * s))
 
 
 def required_deceleration(
@@ -579,11 +689,17 @@ def required_deceleration(
     (:math:`v_l = v`, :math:`b = 0`) :math:`d_L = d_0`.  Defaults in
     :class:`RequiredDecelerationParams`.
     """
-    p = _resolve(params, RequiredDecelerationParams, "required_deceleration")
-    v, vl, _, b = _kinematics(v_ego, v_rel, a_lead)
-    return _levels(
-        p.d0 + _closest_approach(v, vl, b, p.reaction_time, p.decel_caution),
-        p.d0 + _closest_approach(v, vl, b, p.reaction_time, p.decel_imminent),
+    return _distances("required_deceleration", v_ego, v_rel, a_lead, params)
+
+
+@njit(cache=True)
+def _required_deceleration(v, vl, vc, b, c):  # pragma: no cover - compiled
+    """:func:`required_deceleration` of one pair, before :func:`_levels` (``c``: its
+    ``_constants``)."""
+    reaction_time, decel_caution, decel_imminent, d0 = c[:4]
+    return (
+        d0 + _closest_approach(v, vl, b, reaction_time, decel_caution),
+        d0 + _closest_approach(v, vl, b, reaction_time, decel_imminent),
     )
 
 
@@ -602,6 +718,54 @@ SAFETY_MODELS: dict[str, tuple[Callable[..., Distances], type]] = {
     "rss": (rss, RSSParams),
     "required_deceleration": (required_deceleration, RequiredDecelerationParams),
 }
+# The number of each model in compiled code: its place in SAFETY_MODELS.
+_TIME_HEADWAY, _TTC, _STOPPING_DISTANCE, _MAZDA, _HONDA, _BERKELEY, _RSS, _REQ_DECEL = range(8)
+# Every model's constants go to compiled code as a tuple of this length, padded with zeros
+# (one compiled signature for all the models).
+_N_CONSTANTS = 6
+
+
+def model_constants(name: str, params: object | None = None) -> tuple[int, tuple[float, ...]]:
+    """The safety model ``name`` with ``params`` (``None``: its defaults) as the arguments
+    ``(model, c)`` of :func:`distances_unchecked`."""
+    _, cls = SAFETY_MODELS[name]
+    c = tuple(map(float, _resolve(params, cls, name)._constants()))
+    return list(SAFETY_MODELS).index(name), c + (0.0,) * (_N_CONSTANTS - len(c))
+
+
+@njit(cache=True)
+def distances_unchecked(model, c, v_ego, v_rel, a_lead):  # pragma: no cover - compiled
+    """``(d_caution, d_imminent)`` [m], arrays ``(N,)``, of the model ``(model, c)`` of
+    :func:`model_constants` at inputs ``(N,)`` that are not checked.
+
+    ``v_ego`` is clipped at 0: the model functions check that it is >= 0, and
+    :class:`~acc_fusion.warning.WarningLogic` passes an estimated speed that may dip below.
+    """
+    d_caution = np.empty(v_ego.size)
+    d_imminent = np.empty(v_ego.size)
+    for i in range(v_ego.size):
+        v = _maximum(v_ego[i], 0.0)
+        vl = _maximum(v + v_rel[i], 0.0)
+        vc = -v_rel[i]
+        b = _maximum(-a_lead[i], 0.0)
+        if model == _TIME_HEADWAY:
+            d = _time_headway(v, vl, vc, b, c)
+        elif model == _TTC:
+            d = _ttc(v, vl, vc, b, c)
+        elif model == _STOPPING_DISTANCE:
+            d = _stopping_distance(v, vl, vc, b, c)
+        elif model == _MAZDA:
+            d = _mazda(v, vl, vc, b, c)
+        elif model == _HONDA:
+            d = _honda(v, vl, vc, b, c)
+        elif model == _BERKELEY:
+            d = _berkeley(v, vl, vc, b, c)
+        elif model == _RSS:
+            d = _rss(v, vl, vc, b, c)
+        else:
+            d = _required_deceleration(v, vl, vc, b, c)
+        d_caution[i], d_imminent[i] = _levels(d[0], d[1])
+    return d_caution, d_imminent
 
 
 def safety_distances(
@@ -633,20 +797,64 @@ def time_to_collision(gap, v_rel, a_rel=None) -> np.ndarray:
     ``inf`` where the discriminant is negative or the denominator is not positive (the gap
     never closes).  A gap that is already ``<= 0`` has a TTC of 0.
     """
-    g = check_array("gap", gap)
-    rate = check_array("v_rel", v_rel)
-    acc = np.zeros(()) if a_rel is None else check_array("a_rel", a_rel)
+    g = np.asarray(gap, dtype=float)
+    rate = np.asarray(v_rel, dtype=float)
+    acc = np.zeros(()) if a_rel is None else np.asarray(a_rel, dtype=float)
     try:
-        g, rate, acc = np.broadcast_arrays(np.atleast_1d(g), np.atleast_1d(rate), acc)
+        shape = np.broadcast(g, rate, acc).shape or (1,)  # scalars give (1,)
     except ValueError:
-        raise InputError(
-            "gap, v_rel and a_rel must be scalars or arrays of one length N, got shapes "
-            f"{np.shape(gap)}, {np.shape(v_rel)} and {np.shape(a_rel)}"
-        ) from None
-    gap_pos = np.maximum(g, 0.0)
-    disc = rate**2 - 2.0 * acc * gap_pos
-    denom = -rate + np.sqrt(np.maximum(disc, 0.0))
-    closes = (disc >= 0.0) & (denom > 0.0)
-    with np.errstate(divide="ignore"):
-        out = np.where(closes, 2.0 * gap_pos / np.where(closes, denom, 1.0), np.inf)
-    return np.where(g <= 0.0, 0.0, out)
+        shape = None
+    if shape is not None:
+        out = np.empty(shape)
+        size = out.size
+        if _time_to_collision(
+            _flat(g, shape, size), _flat(rate, shape, size), _flat(acc, shape, size), out.ravel()
+        ):
+            return out
+    # An input is not finite (the checks raise), or the shapes do not broadcast.
+    check_array("gap", g)
+    check_array("v_rel", rate)
+    check_array("a_rel", acc)
+    raise InputError(
+        "gap, v_rel and a_rel must be scalars or arrays of one length N, got shapes "
+        f"{np.shape(gap)}, {np.shape(v_rel)} and {np.shape(a_rel)}"
+    )
+
+
+def _flat(x: np.ndarray, shape: tuple[int, ...], size: int) -> np.ndarray:
+    """``x`` flat for :func:`_time_to_collision`: itself if it has 1 or ``size`` entries, or
+    if ``size`` is 0 (then it is only checked), else broadcast to ``shape``."""
+    if x.size in (1, size) or size == 0:
+        return x.ravel()
+    return np.broadcast_to(x, shape).ravel()
+
+
+@njit(cache=True, error_model="numpy")
+def _time_to_collision(g, rate, acc, out):  # pragma: no cover - compiled
+    """:func:`time_to_collision` of flat inputs of ``out.size`` entries (or 1, broadcast) into
+    ``out``; False, before writing, if an input is not finite."""
+    if not (_finite(g) and _finite(rate) and _finite(acc)):
+        return False
+    for i in range(out.size):
+        gi = g[i if g.size > 1 else 0]
+        ri = rate[i if rate.size > 1 else 0]
+        ai = acc[i if acc.size > 1 else 0]
+        gap_pos = _maximum(gi, 0.0)
+        disc = ri * ri - 2.0 * ai * gap_pos
+        denom = -ri + np.sqrt(_maximum(disc, 0.0))
+        if gi <= 0.0:
+            out[i] = 0.0
+        elif disc >= 0.0 and denom > 0.0:
+            out[i] = 2.0 * gap_pos / denom
+        else:
+            out[i] = np.inf
+    return True
+
+
+@njit(cache=True)
+def _finite(x):  # pragma: no cover - compiled
+    """True if every entry of the flat array ``x`` is finite."""
+    for i in range(x.size):
+        if not np.isfinite(x[i]):
+            return False
+    return True

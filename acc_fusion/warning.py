@@ -41,7 +41,7 @@ from numba import njit
 
 from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.safety import SAFETY_MODELS, safety_distances
+from acc_fusion.safety import SAFETY_MODELS, distances_unchecked, model_constants
 from acc_fusion.validation import check_array, check_choice, check_range
 
 NONE, CAUTION, IMMINENT = 0, 1, 2
@@ -99,12 +99,10 @@ class WarningConfig:
             object.__setattr__(self, "confirm", (k, n))
 
 
-def _per_pair(name: str, value: object, valid: np.ndarray, nonnegative: bool = False) -> np.ndarray:
-    """A scalar or ``(N,)`` input as an ``(N,)`` array, checked where ``valid``."""
+def _per_pair(value: object, n: int) -> np.ndarray:
+    """A scalar or ``(N,)`` input as a float array, ``(N,)`` for a scalar (not checked)."""
     arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(valid.shape, arr)
-    return check_array(name, arr, valid.shape, nonnegative=nonnegative, where=valid)
+    return np.full(n, arr) if arr.ndim == 0 else arr
 
 
 class WarningLogic:
@@ -122,6 +120,7 @@ class WarningLogic:
         self.config = config
         self.n_pairs = int(n_pairs)
         self.dt = check_range("warning.dt", dt, 0.0, 10.0, lo_open=True)
+        self._model, self._constants = model_constants(config.model, config.params)
         self._k, self._n = config.confirm or (1, 1)
         # Steps a raised level is held: on for at least ceil(min_on_time / dt) steps.
         self._hold = math.ceil(config.min_on_time / self.dt - 1e-9)
@@ -169,50 +168,77 @@ class WarningLogic:
                     f"valid must be a boolean array of shape ({n},), got {ok.dtype} {ok.shape}"
                 )
         cfg = self.config
-        g = check_array("gap", gap, (n,), where=ok)
-        sigma = 0.0 if gap_std is None else _per_pair("gap_std", gap_std, ok, nonnegative=True)
-        v, rel, acc = (
-            np.where(ok, _per_pair(name, x, ok), 0.0)
-            for name, x in (("v_ego", v_ego), ("v_rel", v_rel), ("a_lead", a_lead))
-        )
-        d = np.stack(safety_distances(cfg.model, np.maximum(v, 0.0), rel, acc, cfg.params))
-        lower = np.where(ok, g - cfg.z * sigma, np.inf)
+        g = np.asarray(gap, dtype=float)
+        sigma = np.zeros(n) if gap_std is None else _per_pair(gap_std, n)
+        v, rel, acc = _per_pair(v_ego, n), _per_pair(v_rel, n), _per_pair(a_lead, n)
+        if not (
+            g.shape == sigma.shape == v.shape == rel.shape == acc.shape == (n,)
+            and _usable(g, sigma, v, rel, acc, ok)
+        ):  # the checks raise the error of the first bad input
+            check_array("gap", g, (n,), where=ok)
+            check_array("gap_std", sigma, (n,), nonnegative=True, where=ok)
+            check_array("v_ego", v, (n,), where=ok)
+            check_array("v_rel", rel, (n,), where=ok)
+            check_array("a_lead", acc, (n,), where=ok)
+        d_caution, d_imminent = distances_unchecked(self._model, self._constants, v, rel, acc)
 
         level = np.empty(n, dtype=np.int8)
         _latch(
-            lower, d, ok, self._on, self._steps_on, self._history, self._count, self._slot,
-            self._k, self._hold, cfg.hysteresis, level,
+            g, sigma, cfg.z, d_caution, d_imminent, ok, self._on, self._steps_on, self._history,
+            self._count, self._slot, self._k, self._hold, cfg.hysteresis, level,
         )  # fmt: skip
         self._slot = (self._slot + 1) % self._n
         return level
 
 
 @njit(cache=True)
+def _usable(gap, gap_std, v_ego, v_rel, a_lead, ok):  # pragma: no cover - compiled
+    """True if the inputs ``(N,)`` of :meth:`WarningLogic.step` are finite, and ``gap_std``
+    is >= 0, at the pairs in ``ok``."""
+    for i in range(ok.size):
+        if ok[i] and not (
+            np.isfinite(gap[i])
+            and np.isfinite(gap_std[i])
+            and gap_std[i] >= 0.0
+            and np.isfinite(v_ego[i])
+            and np.isfinite(v_rel[i])
+            and np.isfinite(a_lead[i])
+        ):
+            return False
+    return True
+
+
+@njit(cache=True)
 def _latch(
-    lower, d, ok, on, steps_on, history, count, slot, k, hold, hysteresis, level
-):  # pragma: no cover - compiled
+    gap, gap_std, z, d_caution, d_imminent, ok, on, steps_on, history, count, slot, k, hold,
+    hysteresis, level,
+):  # pragma: no cover - compiled  # fmt: skip
     """One step of the latches of every pair, in place (the rules of the module docstring).
 
-    ``lower (N,)`` is the compared gap, ``d (2, N)`` the caution and imminent distances,
-    ``ok (N,)`` the pairs with a track; ``history[:, :, slot]`` receives this step's
-    conditions; ``level (N,)`` receives the output level.
+    ``gap - z * gap_std (N,)`` is the compared gap, ``d_caution``, ``d_imminent (N,)`` the
+    distances, ``ok (N,)`` the pairs with a track; ``history[:, :, slot]`` receives this
+    step's conditions; ``level (N,)`` receives the output level.
     """
     now = np.zeros(2, dtype=np.bool_)
-    for i in range(lower.size):
+    d = np.empty(2)
+    for i in range(ok.size):
         if not ok[i]:  # no track: level none, state cleared
             for lv in range(2):
                 on[lv, i] = False
                 steps_on[lv, i] = 0
-                count[lv, i] = 0
-                history[lv, i, :] = False
+                if count[lv, i]:  # the ring holds count[lv, i] true conditions
+                    count[lv, i] = 0
+                    history[lv, i, :] = False
             level[i] = NONE
             continue
+        lower = gap[i] - z * gap_std[i]
+        d[0], d[1] = d_caution[i], d_imminent[i]
         for lv in range(2):
-            cond = lower[i] < d[lv, i]
+            cond = lower < d[lv]
             count[lv, i] += np.int64(cond) - np.int64(history[lv, i, slot])
             history[lv, i, slot] = cond
             steps_on[lv, i] += np.int64(on[lv, i])
-            release = steps_on[lv, i] >= hold and lower[i] > d[lv, i] * (1.0 + hysteresis)
+            release = steps_on[lv, i] >= hold and lower > d[lv] * (1.0 + hysteresis)
             now[lv] = (on[lv, i] and not release) or (cond and count[lv, i] >= k)
         now[0] = now[0] or now[1]  # imminent => caution
         for lv in range(2):
