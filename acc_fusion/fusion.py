@@ -448,19 +448,21 @@ class FederatedFilter(Estimator):
             raise ConfigError(
                 f"fusion.beta has {len(config.beta)} values but there are {len(sensors)} sensors"
             )
+        b = config.beta
+        # The initial sharing factors (also a new track's).
+        self._beta0 = (
+            np.full(len(sensors), 1.0 / len(sensors))
+            if isinstance(b, str)
+            else np.array(b, dtype=float)
+        )
         super().__init__(sensors, n_pairs, config)
-
-    def _beta0(self) -> np.ndarray:
-        b = self.config.beta
-        if isinstance(b, str):
-            return np.full(self.n_sensors, 1.0 / self.n_sensors)
-        return np.asarray(b, dtype=float)
 
     def _reset_state(self):
         n, s = self.n_pairs, self.n_sensors
         self.locals = self.engine.bank(s, n, STATE_DIM)
         self.master = self.engine.bank(1, n, STATE_DIM)
-        self.beta = np.repeat(self._beta0()[:, None], n, axis=1)
+        self.beta = np.repeat(self._beta0[:, None], n, axis=1)
+        self._infl: np.ndarray | None = None  # 1 / beta, recomputed after beta changes
         fdi = None if self.plain else self.config.fdi
         self.fdi = None if fdi is None else WindowedChiSquare(n, s, fdi)
         self._confirm = fdi is not None and fdi.confirm_tracks and self._coverage is not None
@@ -471,7 +473,8 @@ class FederatedFilter(Estimator):
         self._k = 0
 
     def _drop(self, pairs):
-        self.beta[:, pairs] = self._beta0()[:, None]
+        self.beta[:, pairs] = self._beta0[:, None]
+        self._infl = None
         self._seen[:, pairs] = False
         self._needed[:, pairs] = False
         if self.fdi is not None:
@@ -516,10 +519,14 @@ class FederatedFilter(Estimator):
         return self.fdi.isolated.T
 
     def _inflation(self) -> np.ndarray:
-        """``(S, N)`` factor :math:`1/\\beta_i` applied to a local's prior and process noise."""
-        if not self._inflate:
-            return np.ones_like(self.beta)
-        return np.where(self.beta > 0, 1.0 / np.where(self.beta > 0, self.beta, 1.0), 1.0)
+        """``(S, N)`` factor :math:`1/\\beta_i` applied to a local's prior and process noise
+        (kept until :math:`\\beta` changes)."""
+        if self._infl is None and self._inflate:
+            ok = self.beta > 0
+            self._infl = np.where(ok, 1.0 / np.where(ok, self.beta, 1.0), 1.0)
+        elif self._infl is None:
+            self._infl = np.ones_like(self.beta)
+        return self._infl
 
     def _share(self, active: np.ndarray) -> None:
         """Recompute :math:`\\beta` over the active locals of every pair (sum 1 per pair)."""
@@ -527,9 +534,10 @@ class FederatedFilter(Estimator):
             tr = np.trace(self.locals.p, axis1=2, axis2=3) * np.where(self.beta > 0, self.beta, 1.0)
             w = np.where(active, 1.0 / tr, 0.0)
         else:
-            w = np.where(active, self._beta0()[:, None], 0.0)
+            w = np.where(active, self._beta0[:, None], 0.0)
         total = w.sum(axis=0)
         np.divide(w, total, out=self.beta, where=total > 0)
+        self._infl = None
 
     def _advance(self, z, r, valid):
         s_all = range(self.n_sensors)
