@@ -124,6 +124,25 @@ def test_truth_frame_rejects_nan_for_pairs_with_a_leader():
         TruthFrame(t=0.0, gap=np.array([10.0, np.nan]), leader_id=np.array([1, 2]), **kw)
 
 
+def test_truth_frame_from_arrays_is_the_checked_frame_without_the_checks():
+    n = 3
+    arrays = dict(
+        ego_speed=np.array([20.0, 0.0, 5.0]),
+        ego_accel=np.zeros(n),
+        gap=np.array([30.0, np.nan, 4.0]),
+        lead_speed=np.array([18.0, np.nan, 5.5]),
+        lead_accel=np.array([-1.0, np.nan, 0.0]),
+        leader_id=np.array([7, -1, 9]),
+    )
+    checked = TruthFrame(t=1.5, **arrays)
+    fast = TruthFrame.from_arrays(1.5, **arrays)
+    for name in ("t", "ego_speed", "gap", "leader_id", "lateral_offset", "range_rate"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(checked, name))
+    assert fast.gap is arrays["gap"]  # taken as they are, no copy
+    lat = np.array([0.5, 0.0, -0.2])
+    assert TruthFrame.from_arrays(1.5, **arrays, lateral_offset=lat).lateral_offset is lat
+
+
 def test_estimates_stay_finite_through_dropouts_and_track_loss():
     from acc_fusion.faults import Fault
 

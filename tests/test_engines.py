@@ -69,3 +69,13 @@ def test_batched_equals_filterpy(name):
     assert runs["batched"][-1].valid.sum() > 0.8 * N_PAIRS
     if name == "federated":
         assert isolated_any, "the fault scenario should exercise isolation"
+
+
+def test_batched_banks_have_the_models_state_dimension():
+    from acc_fusion.engines import Engine
+    from acc_fusion.errors import ConfigError
+    from acc_fusion.models import STATE_DIM
+
+    assert Engine("batched").bank(2, 5, STATE_DIM).x.shape == (2, 5, STATE_DIM)
+    with pytest.raises(ConfigError, match="dimension 3, got 2"):
+        Engine("batched").bank(1, 5, 2)
