@@ -70,8 +70,8 @@ Rows (``runs.parquet``)
     else JSON), ``fault`` (the injected fault types, e.g. ``"radar:bias"``, or ``"none"``),
     ``method``, the event counts ``warnings``, ``false_alarms``, ``threats``, ``detected``,
     ``missed``, ``collisions``, the exposure ``hours`` and ``km``, ``lead_time_sum_s`` (sum of
-    the lead times of the detected threats [s]) and ``steps`` (simulation steps of a scripted
-    chunk; 0 for a SUMO run).
+    the lead times of the detected threats [s]) and ``steps`` (simulation steps of the chunk:
+    of its scripted runs, or of its SUMO run).
     See :mod:`acc_fusion.metrics` for the definitions.
 """
 
@@ -545,7 +545,7 @@ def run_chunk(chunk: Chunk) -> dict[str, list]:
         run = _run(_sumo_config(point.sumo, chunk.sim_seed), sim, False, False)
         if run.error:
             raise AccFusionError(f"SUMO failed in chunk {chunk.id}: {run.error}")
-        steps = 0
+        steps = run.steps
         per_run = {m: _summary_counts(s) for m, s in run.summaries.items()}
     else:
         result = simulate(sim)

@@ -84,7 +84,8 @@ class SumoRun:
 
     ``collisions`` counts every collision SUMO reported (equipped or not); the collisions of
     equipped vehicles are in each summary.  ``error`` is SUMO's message when it failed
-    mid-run (the summaries then cover the run up to the failure).
+    mid-run (the summaries then cover the run up to the failure, and ``steps`` is 0);
+    ``steps`` counts the simulation steps of a completed run.
     """
 
     summaries: dict[str, FCWSummary]
@@ -93,6 +94,7 @@ class SumoRun:
     hazards: int
     ssm_pairs: list[tuple[float, float]]
     error: str | None = None
+    steps: int = 0
 
 
 def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> SumoRun:
@@ -111,12 +113,12 @@ def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> Sumo
             method = sim.methods[-1]
             hook = _then(hook, lambda view: source.set_warning_colors(view.levels[method]))
         metrics_so_far: dict[str, FCWSummary] = {}
-        error = None
+        error, steps = None, 0
         try:
             result = simulate(
                 replace(sim, dt=source.dt), source=source, progress=progress, on_step=hook
             )
-            metrics_so_far = result.summaries
+            metrics_so_far, steps = result.summaries, result.steps
         except SumoError as exc:  # SUMO failed mid-run: report it with what was measured
             error = str(exc)
             metrics_so_far = getattr(exc, "summaries", {})
@@ -131,6 +133,7 @@ def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> Sumo
             int(source.n_hazards),
             pairs,
             error,
+            steps,
         )
 
 

@@ -352,3 +352,23 @@ def test_an_address_that_is_not_ray_is_a_clear_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"acc-fusion: error: cannot connect to the Ray cluster at '127.0.0.1:{port}'" in err
     assert time.perf_counter() - t0 < 60.0
+
+
+def test_a_sumo_sweep_records_the_runs_of_sumo(tmp_path):
+    cfg = SweepConfig.from_mapping(
+        {
+            "name": "sumo-small",
+            "source": "sumo",
+            "seeds": [0],
+            "runs": 1,
+            "base": {"methods": ["radar", "federated"]},
+            "sumo": {"net": "ring", "end": 5.0},
+            "axes": {"sumo.penetration": [0.5, 1.0]},
+        }
+    )
+    result = run_sweep(cfg, tmp_path, progress=False, report=False)
+    rows = result.rows
+    assert len(rows) == 2 * 2  # two points, one SUMO run each, two methods
+    assert (rows["steps"] == 50).all()  # 5 s of the ring's 0.1 s steps
+    hours = rows.groupby("sumo.penetration")["hours"].first()
+    assert 0 < hours[0.5] < hours[1.0]  # fewer equipped vehicles, less exposure
