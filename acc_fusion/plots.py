@@ -32,13 +32,19 @@ def estimation_bars(table):
     return fig
 
 
-_COLORS = {
+#: The colour of each sensor and method in every figure.
+METHOD_COLORS = {
     "radar": "tab:blue",
     "infrared": "tab:orange",
     "centralized": "tab:purple",
     "federated": "tab:green",
     "plain": "tab:gray",
 }
+
+
+def method_color(method: str) -> str:
+    """The colour of ``method`` (red for a method without one of its own)."""
+    return METHOD_COLORS.get(method, "tab:red")
 
 
 def _column(rows, key):
@@ -60,7 +66,7 @@ def run_figure(trace, config):
             _column(rows, f"{sensor}_range"),
             ".",
             ms=3,
-            color=_COLORS[sensor],
+            color=METHOD_COLORS[sensor],
             alpha=0.6,
             label=f"{sensor} measurement",
         )
@@ -69,13 +75,13 @@ def run_figure(trace, config):
             _column(rows, f"{sensor}_range_rate"),
             ".",
             ms=3,
-            color=_COLORS[sensor],
+            color=METHOD_COLORS[sensor],
             alpha=0.6,
             label=f"{sensor} measurement",
         )
     for method in config.methods:
         gap, std = _column(rows, f"{method}_gap"), _column(rows, f"{method}_gap_std")
-        color = _COLORS.get(method, "tab:red")
+        color = method_color(method)
         fused = method not in ("radar", "infrared")
         ax_g.plot(
             t,
@@ -162,7 +168,7 @@ def rates_figure(summaries, title: str):
         rates = [getattr(summaries[m], attr) for m in names]
         values = np.array([r.value for r in rates])
         err = np.array([[r.value - r.lo for r in rates], [r.hi - r.value for r in rates]])
-        ax.bar(x, values, color=[_COLORS.get(m, "tab:red") for m in names], yerr=err, capsize=5)
+        ax.bar(x, values, color=[method_color(m) for m in names], yerr=err, capsize=5)
         ax.set_xticks(x, names)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)

@@ -51,10 +51,6 @@ def operating_points(cfg: SweepConfig, rows):
     return aggregate(rows, ["method", *split, *along])
 
 
-def _color(method: str) -> str:
-    return plots._COLORS.get(method, "tab:red")
-
-
 def roc_figure(cfg: SweepConfig, table):
     """ROC (detection rate vs false alarms per hour) and DET (miss rate vs false alarms per
     hour, log-log) curves per method, from :func:`operating_points`."""
@@ -73,7 +69,13 @@ def roc_figure(cfg: SweepConfig, table):
         x, miss = g["fa_per_hour"].to_numpy(float), g["miss_rate"].to_numpy(float)
         xerr = [x - g["fa_per_hour_lo"], g["fa_per_hour_hi"] - x]
         yerr = [g["miss_rate_hi"] - miss, miss - g["miss_rate_lo"]]
-        kw = {"color": _color(key[0]), "ls": style, "marker": "o", "ms": 4, "label": label}
+        kw = {
+            "color": plots.method_color(key[0]),
+            "ls": style,
+            "marker": "o",
+            "ms": 4,
+            "label": label,
+        }
         roc.errorbar(x, 1.0 - miss, xerr=xerr, yerr=yerr, capsize=2, lw=1.2, **kw)
         det.plot(np.maximum(x, DET_FLOOR[0]), np.maximum(miss, DET_FLOOR[1]), **kw)
         if threshold:
@@ -119,7 +121,7 @@ def fault_figure(cfg: SweepConfig, table):
             v = g[col].to_numpy(float)
             err = np.array([v - g[f"{col}_lo"], g[f"{col}_hi"] - v])
             x = np.arange(len(faults)) + (j - (len(methods) - 1) / 2) * width
-            ax.bar(x, v, width, yerr=err, capsize=3, color=_color(m), label=m)
+            ax.bar(x, v, width, yerr=err, capsize=3, color=plots.method_color(m), label=m)
         ax.set_xticks(np.arange(len(faults)), faults, rotation=20, ha="right", fontsize=8)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
