@@ -289,6 +289,42 @@ def check_sumocfg(path: str | os.PathLike, extra_args: Sequence[str] = ()) -> Pa
     return cfg.resolve()
 
 
+def sumo_command(
+    config: SumoConfig, cfg_path: str | os.PathLike | None = None, ssm_file: str | None = None
+) -> list[str]:
+    """The SUMO command line of a :class:`SumoSource` with ``config``: the ``.sumocfg``
+    (``cfg_path``, by default ``config.sumocfg``) with the source's seed, collision and
+    step-length options, and the SSM device writing to ``ssm_file`` when ``config.ssm``.
+    The run length is not on it (the source stops stepping at its end time); a benchmark
+    that runs SUMO alone on the same scenario adds ``--end``.
+
+    >>> sumo_command(SumoConfig("motorway.sumocfg", seed=3))[1:5]
+    ['-c', 'motorway.sumocfg', '--seed', '3']
+    """
+    cmd = [
+        _sumo_binary(config.gui),
+        "-c", os.fspath(config.sumocfg if cfg_path is None else cfg_path),
+        "--seed", str(int(config.seed)),
+        "--no-step-log", "true",
+        "--no-warnings", "true",
+        "--duration-log.disable", "true",
+        "--collision.action", config.collision_action,
+        "--collision.mingap-factor", "0",
+        "--collision.check-junctions", "true",
+    ]  # fmt: skip
+    if config.step_length is not None:
+        cmd += ["--step-length", repr(float(config.step_length))]
+    if config.ssm:
+        cmd += [
+            "--device.ssm.probability", "1",
+            "--device.ssm.measures", "TTC",
+            "--device.ssm.file", ssm_file or os.devnull,
+        ]  # fmt: skip
+    if config.gui:
+        cmd += ["--start", "true", "--quit-on-end", "true"]
+    return cmd + list(config.extra_args)
+
+
 @contextmanager
 def _captured_stderr(sink: list[str]):
     """Capture what SUMO writes to the process's stderr (fd 2) into ``sink``, then echo it."""
@@ -434,7 +470,8 @@ class SumoSource(SlotSource):
                 "close it first (libsumo runs one simulation per process)"
             )
         self._tmpdir = tempfile.mkdtemp(prefix="acc_fusion_sumo_")
-        cmd = self._command(cfg_path)
+        ssm_file = os.path.join(self._tmpdir, "ssm.xml")
+        cmd = sumo_command(cfg, cfg_path, ssm_file)
         captured: list[str] = []
         try:
             # libsumo reports load errors on stderr (the exception says "Process Error");
@@ -461,31 +498,6 @@ class SumoSource(SlotSource):
             raise
 
     # ---------------------------------------------------------------- set-up
-    def _command(self, cfg_path: Path) -> list[str]:
-        cfg = self.config
-        cmd = [
-            _sumo_binary(cfg.gui),
-            "-c", str(cfg_path),
-            "--seed", str(int(cfg.seed)),
-            "--no-step-log", "true",
-            "--no-warnings", "true",
-            "--duration-log.disable", "true",
-            "--collision.action", cfg.collision_action,
-            "--collision.mingap-factor", "0",
-            "--collision.check-junctions", "true",
-        ]  # fmt: skip
-        if cfg.step_length is not None:
-            cmd += ["--step-length", repr(float(cfg.step_length))]
-        if cfg.ssm:
-            cmd += [
-                "--device.ssm.probability", "1",
-                "--device.ssm.measures", "TTC",
-                "--device.ssm.file", os.path.join(self._tmpdir or ".", "ssm.xml"),
-            ]  # fmt: skip
-        if cfg.gui:
-            cmd += ["--start", "true", "--quit-on-end", "true"]
-        return cmd + list(cfg.extra_args)
-
     def _setup(self, cfg_path: Path) -> None:
         cfg, api = self.config, self._api
         tc = api.constants

@@ -7,7 +7,9 @@
 itself runs in a child process.  The child steps SUMO, reads the frame and sends it, without
 waiting to be asked, so the SUMO steps and the libsumo reads run on one core while the
 pipeline processes earlier frames on the other.  The socket between them is the only bound:
-when its buffer is full (two or three frames), the child's send waits for the parent to read.
+its buffers are enlarged (:data:`SOCKET_BUFFER`: about a hundred frames of 1 024 slots) so that
+neither process waits for the other on a step that happens to be slow for one of them; when
+they are full, the child's send waits for the parent to read.
 Nothing waits for a request per step: on a virtual machine, waking a sleeping process costs
 a quarter of a millisecond or more, as much as a SUMO step, and a request-reply per frame
 paid it twice per step.
@@ -55,6 +57,10 @@ from acc_fusion.validation import check_array
 
 #: Counters of :class:`~acc_fusion.sumo.SumoSource` mirrored by the background source.
 COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
+#: Send and receive buffer of each end of the socket [bytes] (Linux caps it at
+#: ``net.core.wmem_max``).  The default (about 200 KB) held two or three frames, and each
+#: process then waited for the other on the other's slow steps.
+SOCKET_BUFFER = 4 << 20
 #: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
 CLOSE_TIMEOUT = 30.0
 
@@ -167,6 +173,9 @@ class BackgroundSumoSource(SlotSource):
         self.config = config
         self._closed = True
         mine, theirs = socket.socketpair()
+        for end in (mine, theirs):
+            end.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
+            end.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, SOCKET_BUFFER)
         fd = theirs.fileno()
         code = f"from acc_fusion.sumo_background import _child; _child({fd})"
         path = os.pathsep.join(

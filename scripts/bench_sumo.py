@@ -1,20 +1,25 @@
 """Benchmark: the cost of the FCW pipeline on top of a SUMO traffic simulation.
 
-Runs the same SUMO scenario (the bundled motorway, >= 500 vehicles at peak) twice, each in a
-fresh process (libsumo allows one simulation per process), one after the other:
+Runs the same SUMO scenario (the bundled motorway, >= 500 vehicles at peak, with the SUMO
+options of :func:`acc_fusion.sumo.sumo_command`) three times, each in a fresh process (libsumo
+allows one simulation per process), one after the other:
 
 * **bare**: SUMO alone, ``simulationStep`` in a loop;
+* **reads**: SUMO plus only what any libsumo design must read per step: the speed and the
+  leader (``getSpeed``, ``getLeader``) of every vehicle, through libsumo's raw SWIG functions,
+  with nothing done with them.  Its ratio to bare is the floor of ``overhead_ratio``: the
+  pipeline can overlap SUMO on another core, the reads cannot;
 * **pipeline**: SUMO through :class:`acc_fusion.sumo_background.BackgroundSumoSource` (the
   :class:`acc_fusion.sumo.SumoSource` in a child process, streaming its frames ahead: exact
   in open loop) with the whole FCW pipeline on every equipped vehicle: radar and infrared sensors,
   ego-motion filter, federated fusion with fault detection, warning logic, oracle and
   streaming metrics.  ``--inline`` runs the source in the pipeline's own process instead.
 
-It prints both wall times, the peak number of vehicles and equipped pairs, the resident
+It prints the three wall times, the peak number of vehicles and equipped pairs, the resident
 memory of the pipeline and SUMO processes at a quarter of the run and at its end (memory
 must stay flat: every per-vehicle record is dropped when the vehicle leaves, and the metrics
-stream), and as its last line ``overhead_ratio=<pipeline wall time / bare wall time>``
-(target: <= 1.5).
+stream), ``floor_ratio=<reads wall time / bare wall time>``, and as its last line
+``overhead_ratio=<pipeline wall time / bare wall time>`` (target: <= 1.5).
 
     python scripts/bench_sumo.py             # 600 s simulated
     python scripts/bench_sumo.py --quick     # 200 s simulated, under a minute
@@ -28,26 +33,36 @@ import multiprocessing
 import os
 import resource
 import time
+from collections import deque
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
+from itertools import repeat
 
 from acc_fusion.traffic import bundled_nets
 
 
-def _bare(sumocfg: str, end: float) -> tuple[float, int]:
-    """Wall time of SUMO alone, and the peak number of vehicles."""
+def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
+    """Wall time of SUMO alone (with ``reads``: plus every vehicle's speed and leader at every
+    step), and the peak number of vehicles."""
     import libsumo
-    import sumo  # noqa: F401  (sets SUMO_HOME)
 
-    libsumo.start(
-        ["sumo", "-c", sumocfg, "--no-step-log", "true", "--no-warnings", "true", "--end", str(end)]
-    )
+    from acc_fusion.sumo import SumoConfig, sumo_command
+
+    config = SumoConfig(sumocfg=sumocfg, end=end)
+    libsumo.start([*sumo_command(config), "--end", str(end)])
+    # The SWIG functions without libsumo's Python wrappers, as SumoSource reads them.
+    get_ids, get_speed = libsumo._libsumo.vehicle_getIDList, libsumo._libsumo.vehicle_getSpeed
+    get_leader, lookahead = libsumo._libsumo.vehicle_getLeader, config.lookahead
     peak = 0
     t0 = time.perf_counter()
     try:
         while libsumo.simulation.getTime() < end - 1e-9:
             libsumo.simulationStep()
             peak = max(peak, libsumo.vehicle.getIDCount())
+            if reads:
+                ids = get_ids()
+                deque(map(get_speed, ids), maxlen=0)
+                deque(map(get_leader, ids, repeat(lookahead)), maxlen=0)
     finally:
         elapsed = time.perf_counter() - t0
         libsumo.close()
@@ -114,18 +129,22 @@ def main(argv: list[str] | None = None) -> None:
     sumocfg = str(nets[args.net])
     ctx = multiprocessing.get_context("spawn")
     results = {}
-    for name, func, extra in (("bare", _bare, ()), ("pipeline", _pipeline, (args.inline,))):
+    runs = (("bare", _bare, ()), ("reads", _bare, (True,)), ("pipeline", _pipeline, (args.inline,)))
+    for name, func, extra in runs:
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
             results[name] = pool.submit(func, sumocfg, end, *extra).result()
     (t_bare, peak), (t_pipe, pairs, rss_quarter, rss_end) = results["bare"], results["pipeline"]
+    t_reads = results["reads"][0]
     print(f"network {args.net}: {end:g} s simulated, peak {peak} vehicles, {pairs} equipped pairs")
     print(f"bare SUMO           {t_bare:8.2f} s wall")
+    print(f"SUMO + reads only   {t_reads:8.2f} s wall (speed and leader of every vehicle)")
     where = "in the pipeline's process" if args.inline else "in a child process, streaming ahead"
     print(f"SUMO + FCW pipeline {t_pipe:8.2f} s wall (SUMO {where})")
     print(
         f"memory (pipeline and SUMO processes): {rss_quarter:.0f} MB at {end / 4:g} s, "
         f"{rss_end:.0f} MB at {end:g} s ({rss_end - rss_quarter:+.1f} MB)"
     )
+    print(f"floor_ratio={t_reads / t_bare:.3f}")
     print(f"overhead_ratio={t_pipe / t_bare:.3f}")
 
 

@@ -82,3 +82,14 @@ def test_bench_filters_quick():
     ).stdout
     assert "Cost per pair-step" in out and "filterpy" in out and "steady-state" in out
     assert re.fullmatch(r"speedup_vs_filterpy=[0-9.]+", out.strip().splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_bench_sumo_prints_the_floor_and_the_overhead_ratio():
+    out = run("bench_sumo.py", "--net", "ring", "--end", "20").stdout
+    lines = out.strip().splitlines()
+    assert lines[0].startswith("network ring: 20 s simulated, peak ")
+    for run_name in ("bare SUMO", "SUMO + reads only", "SUMO + FCW pipeline"):
+        assert any(line.startswith(run_name) for line in lines), run_name
+    assert re.fullmatch(r"floor_ratio=[0-9.]+", lines[-2])
+    assert re.fullmatch(r"overhead_ratio=[0-9.]+", lines[-1])
