@@ -6,10 +6,12 @@
 :meth:`~BackgroundSumoSource.ssm_min_ttc`) while the :class:`~acc_fusion.sumo.SumoSource`
 itself runs in a child process.  The child steps SUMO, reads the frame and sends it, without
 waiting to be asked, so the SUMO steps and the libsumo reads run on one core while the
-pipeline processes earlier frames on the other.  The socket between them is the only bound:
-its buffers are enlarged (:data:`SOCKET_BUFFER`: about a hundred frames of 1 024 slots) so that
-neither process waits for the other on a step that happens to be slow for one of them; when
-they are full, the child's send waits for the parent to read.
+pipeline processes earlier frames on the other.  The child never waits for the parent to
+read, up to :data:`OUTBOX_LIMIT` bytes of frames: what the socket does not take waits in the
+child's memory (:class:`_Outbox`).  That matters because the two sides' costs move in
+opposite phases: SUMO's step grows with the traffic (0.15 ms per step while the motorway
+fills, 1 ms at its peak) while the pipeline's is nearly fixed, so the child runs hundreds of
+frames ahead early and the parent catches up later.
 Nothing waits for a request per step: on a virtual machine, waking a sleeping process costs
 a quarter of a millisecond or more, as much as a SUMO step, and a request-reply per frame
 paid it twice per step.
@@ -40,11 +42,15 @@ Processes
 from __future__ import annotations
 
 import os
+import pickle
+import select
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import warnings
+from collections import deque
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -57,10 +63,12 @@ from acc_fusion.validation import check_array
 
 #: Counters of :class:`~acc_fusion.sumo.SumoSource` mirrored by the background source.
 COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
-#: Send and receive buffer of each end of the socket [bytes] (Linux caps it at
-#: ``net.core.wmem_max``).  The default (about 200 KB) held two or three frames, and each
-#: process then waited for the other on the other's slow steps.
-SOCKET_BUFFER = 4 << 20
+#: Bytes of frames the child may hold for the parent beyond the socket's buffer before it
+#: waits: about 800 frames of 1 024 slots.  SUMO's step costs grow with the traffic while the
+#: pipeline's are fixed, so the child runs ahead while the network fills and the parent
+#: catches up later; a buffer of a few frames made each process wait on the other's slow
+#: steps instead.
+OUTBOX_LIMIT = 64 << 20
 #: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
 CLOSE_TIMEOUT = 30.0
 
@@ -106,9 +114,55 @@ def _child(fd: int) -> None:
     _serve(conn.recv(), conn)
 
 
+class _Outbox:
+    """Messages to the parent, written to the socket without blocking SUMO's stepping.
+
+    A message that does not fit in the socket's buffer waits here, in order, and is written
+    as the parent reads; only when more than ``limit`` bytes wait does :meth:`put` block until
+    the parent has caught up to ``limit``.  The bytes on the socket are those of
+    ``Connection.send`` (a 4-byte big-endian length, then the pickle), so the parent reads
+    them with ``Connection.recv``.  The socket is non-blocking while the outbox is open.
+    """
+
+    def __init__(self, fd: int, limit: int) -> None:
+        self._fd, self._limit = fd, limit
+        self._queue: deque[memoryview] = deque()
+        self._queued = 0
+        os.set_blocking(fd, False)
+
+    def put(self, message: tuple) -> None:
+        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        for part in (struct.pack("!i", len(data)), data):
+            self._queue.append(memoryview(part))
+            self._queued += len(part)
+        self._write(self._limit)
+
+    def close(self) -> None:
+        """Write everything still waiting (blocking), and make the socket blocking again."""
+        self._write(0)
+        os.set_blocking(self._fd, True)
+
+    def _write(self, keep: int) -> None:
+        """Write what the socket takes; block while more than ``keep`` bytes wait."""
+        while self._queue:
+            try:
+                sent = os.write(self._fd, self._queue[0])
+            except BlockingIOError:
+                if self._queued <= keep:
+                    return
+                select.select([], [self._fd], [])
+                continue
+            self._queued -= sent
+            if sent == len(self._queue[0]):
+                self._queue.popleft()
+            else:
+                self._queue[0] = self._queue[0][sent:]
+
+
 def _serve(config: SumoConfig, conn: Any) -> None:
-    """Run a :class:`SumoSource` to its end, sending every frame as soon as it is read; then
-    answer ``"ssm"`` requests until the parent closes the socket."""
+    """Run a :class:`SumoSource` to its end, sending every frame as soon as it is read
+    (through an :class:`_Outbox`); then answer ``"ssm"`` requests until the parent closes
+    the socket."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -117,20 +171,22 @@ def _serve(config: SumoConfig, conn: Any) -> None:
             conn.send(_failure(exc))
             return
         try:
+            outbox = _Outbox(conn.fileno(), OUTBOX_LIMIT)
             meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
-            conn.send(("meta", meta))
+            outbox.put(("meta", meta))
             ids = src.vehicle_ids
-            conn.send(_snapshot(src, True, caught))
+            outbox.put(_snapshot(src, True, caught))
             while not src.done:
                 caught.clear()
                 try:
                     src.advance()
                 except Exception as exc:  # SUMO failed: the parent raises it at this frame
-                    conn.send(_failure(exc))
+                    outbox.put(_failure(exc))
                     break
                 now = src.vehicle_ids
-                conn.send(_snapshot(src, now != ids, caught))
+                outbox.put(_snapshot(src, now != ids, caught))
                 ids = now
+            outbox.close()
             while conn.recv() == "ssm":
                 conn.send(("ssm", src.ssm_min_ttc()))
         except (EOFError, OSError):  # the parent closed the socket (or went away)
@@ -173,9 +229,6 @@ class BackgroundSumoSource(SlotSource):
         self.config = config
         self._closed = True
         mine, theirs = socket.socketpair()
-        for end in (mine, theirs):
-            end.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
-            end.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, SOCKET_BUFFER)
         fd = theirs.fileno()
         code = f"from acc_fusion.sumo_background import _child; _child({fd})"
         path = os.pathsep.join(

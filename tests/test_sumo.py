@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import sys
 import textwrap
+import threading
 from dataclasses import replace
+from multiprocessing.connection import Connection
 
 import numpy as np
 import pytest
@@ -22,7 +25,7 @@ import acc_fusion.sumo as sumo_mod  # noqa: E402
 from acc_fusion.errors import ConfigError  # noqa: E402
 from acc_fusion.fcw import SimConfig, simulate  # noqa: E402
 from acc_fusion.sumo import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
-from acc_fusion.sumo_background import COUNTERS, BackgroundSumoSource  # noqa: E402
+from acc_fusion.sumo_background import COUNTERS, BackgroundSumoSource, _Outbox  # noqa: E402
 
 ROUTES = """<routes>
   <vType id="car" length="4.5" minGap="2.5" accel="2.6" decel="4.5" sigma="0.5" tau="1.0"/>
@@ -475,6 +478,24 @@ def test_errors_reach_the_parent_as_the_in_process_source_raises_them(road, tmp_
     assert failure.value.summaries["radar"].hours > 0  # the metrics so far are kept
     with pytest.raises(SumoError, match="closed"):
         src.advance()
+
+
+def test_the_childs_outbox_never_waits_below_its_limit_and_keeps_the_order():
+    parent_end, child_end = socket.socketpair()
+    outbox = _Outbox(child_end.fileno(), limit=64 << 20)
+    payload = np.arange(100_000.0)  # 800 kB a message: more than the socket's buffer holds
+    for k in range(20):
+        outbox.put(("frame", k, payload))  # returns at once although nobody reads yet
+    assert outbox._queued > 10 * payload.nbytes
+    reader = Connection(parent_end.detach())
+    got = []
+    thread = threading.Thread(target=lambda: got.extend(reader.recv() for _ in range(20)))
+    thread.start()
+    outbox.close()  # writes the rest as the reader reads (blocking)
+    thread.join()
+    assert [m[1] for m in got] == list(range(20))
+    assert np.array_equal(got[-1][2], payload)
+    assert outbox._queued == 0 and os.get_blocking(child_end.fileno())
 
 
 def test_a_dead_child_is_a_clear_error(road):
