@@ -59,6 +59,7 @@ import numpy as np
 
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.scenarios import TIME_TOL, G
+from acc_fusion.slots import PairState
 from acc_fusion.truth import TruthFrame
 from acc_fusion.validation import check_array, check_choice, check_interval, check_range
 
@@ -119,7 +120,7 @@ class DriverConfig:
             object.__setattr__(self, name, value)
 
 
-class Driver:
+class Driver(PairState):
     """N simulated drivers, one per run (see the module docstring).
 
     Args:
@@ -131,6 +132,10 @@ class Driver:
         reaction_time: ``(N,)`` each driver's reaction time [s].
         deceleration: ``(N,)`` each driver's braking deceleration [m/s²].
     """
+
+    _PAIR_AXES = dict.fromkeys(
+        ("reaction_time", "deceleration", "_onset", "_braking", "_warned"), 0
+    )
 
     def __init__(
         self,
@@ -165,6 +170,9 @@ class Driver:
         self._onset[mask] = np.nan
         self._braking[mask] = False
         self._warned[mask] = False
+
+    def _resized(self, m: int) -> None:
+        self.n_runs = m
 
     def step(self, warning: np.ndarray, frame: TruthFrame) -> np.ndarray:
         """The brake request of every driver for the step starting at ``frame.t``.

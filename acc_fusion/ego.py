@@ -55,6 +55,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.errors import ConfigError, InputError
+from acc_fusion.slots import PairState
 from acc_fusion.validation import check_array, check_range
 
 #: Measurement matrix of the wheel-speed sensor, :math:`H = [1\ 0]`.
@@ -145,7 +146,7 @@ class EgoFilterConfig:
         return np.diag([self.speed_var0, self.bias_var0])
 
 
-class EgoMotionFilter:
+class EgoMotionFilter(PairState):
     """Kalman filter of ego speed and accelerometer bias for N vehicles at once.
 
     Each :meth:`step` receives the accelerometer reading and the wheel speed of sample
@@ -159,6 +160,8 @@ class EgoMotionFilter:
     >>> speed.shape, f.covariance.shape
     ((2,), (2, 2, 2))
     """
+
+    _PAIR_AXES = dict.fromkeys(("_v", "_b", "_p00", "_p01", "_p11", "_prev_accel", "_has_prev"), 0)
 
     def __init__(self, n_vehicles: int, config: EgoFilterConfig | None = None) -> None:
         self.n_vehicles = _check_count("n_vehicles", n_vehicles)
@@ -194,6 +197,9 @@ class EgoMotionFilter:
         self._p01 = np.where(sel, 0.0, self._p01)
         self._p11 = np.where(sel, self.config.bias_var0, self._p11)
         self._has_prev = np.where(sel, False, self._has_prev)
+
+    def _resized(self, m: int) -> None:
+        self.n_vehicles = m
 
     def step(
         self,

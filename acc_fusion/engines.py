@@ -22,16 +22,20 @@ from filterpy.kalman import KalmanFilter
 from acc_fusion import kalman
 from acc_fusion.errors import ConfigError
 from acc_fusion.models import STATE_DIM
+from acc_fusion.slots import PairState
 from acc_fusion.validation import check_choice
 
 ENGINES = ("batched", "filterpy")
 
 
-class FilterBank(ABC):
+class FilterBank(PairState, ABC):
     """K Kalman filters of dimension ``dim`` for each of N pairs (e.g. one per sensor)."""
 
     def __init__(self, n_filters: int, n_pairs: int, dim: int) -> None:
         self.n_filters, self.n_pairs, self.dim = n_filters, n_pairs, dim
+
+    def _resized(self, m: int) -> None:
+        self.n_pairs = m
 
     @property
     @abstractmethod
@@ -82,6 +86,8 @@ class FilterBank(ABC):
 class BatchedBank(FilterBank):
     """All filters in two contiguous arrays, updated by the numba kernels (whose state
     dimension is :data:`~acc_fusion.models.STATE_DIM`, a compile-time constant)."""
+
+    _PAIR_AXES = {"_x": 1, "_p": 1}
 
     def __init__(self, n_filters: int, n_pairs: int, dim: int) -> None:
         if dim != STATE_DIM:
@@ -140,6 +146,16 @@ class FilterpyBank(FilterBank):
     def __init__(self, n_filters: int, n_pairs: int, dim: int) -> None:
         super().__init__(n_filters, n_pairs, dim)
         self._kf = [[self._new(dim) for _ in range(n_pairs)] for _ in range(n_filters)]
+
+    def resize(self, m: int) -> None:
+        """Hold the filters of the first ``m`` pairs; the others are parked as they are."""
+        parked = self.__dict__.setdefault("_parked", [[] for _ in self._kf])
+        for j, row in enumerate(self._kf):
+            full = row + parked[j]
+            if not 1 <= m <= len(full):
+                raise ConfigError(f"FilterpyBank can hold 1 to {len(full)} pairs, got {m}")
+            self._kf[j], parked[j] = full[:m], full[m:]
+        self._resized(m)
 
     @staticmethod
     def _new(dim: int) -> KalmanFilter:

@@ -121,6 +121,7 @@ def apply_faults(
     noise: np.ndarray,
     held: Report,
     rng: np.random.Generator,
+    draws: int | None = None,
 ) -> Report:
     """Return the report of a sensor with ``faults`` at time ``t`` (module docstring: effects).
 
@@ -134,19 +135,22 @@ def apply_faults(
         rng: generator for the spike draws; drawn from only while a spikes fault is active,
             with fixed shapes ``(N,)`` and ``(N, 2)``, so that faults never change the
             nominal noise stream.
+        draws: the pairs the spike draws are made for (>= N, the first N are used; default N),
+            so that a pair's draws do not depend on how many pairs are held.
     """
     active = [f for f in faults if f.active(t)]
     burst = math.prod(f.magnitude for f in active if f.kind == "noise_burst")
     z = clean.z + burst * noise
     n = z.shape[0]
+    m = n if draws is None else draws
     for f in active:
         size = np.array([f.magnitude, f.rate_magnitude])
         if f.kind == "bias":
             z = z + size
         elif f.kind == "spikes":
-            hit = rng.random(n) < f.probability
-            sign = np.where(rng.random((n, 2)) < 0.5, -1.0, 1.0)
-            z = z + hit[:, None] * sign * size * (1.0 + rng.random((n, 2)))
+            hit = rng.random(m)[:n] < f.probability
+            sign = np.where(rng.random((m, 2))[:n] < 0.5, -1.0, 1.0)
+            z = z + hit[:, None] * sign * size * (1.0 + rng.random((m, 2))[:n])
     out = Report(z, clean.valid, clean.ghost)
     if any(f.kind == "stuck" for f in active):
         out = held

@@ -30,6 +30,7 @@ from acc_fusion.metrics import FCWMetrics, FCWSummary
 from acc_fusion.safety import safety_distances, time_to_collision
 from acc_fusion.scenarios import SCENARIOS, make_scenario
 from acc_fusion.sensors import Measurement, infrared_spec, radar_spec
+from acc_fusion.slots import Extent, PairState, resize_all
 from acc_fusion.studies import SENSOR_NAMES, make_sensors
 from acc_fusion.truth import TruthFrame
 from acc_fusion.validation import check_choice, check_range
@@ -181,18 +182,24 @@ class SimResult:
     steps: int
 
 
-def _ego_sensors(
-    n: int, rng: np.random.Generator
-) -> Callable[[TruthFrame], tuple[np.ndarray, np.ndarray]]:
-    """Wheel-speed and accelerometer readings (with a constant offset per vehicle)."""
-    bias = rng.normal(0.0, ACCEL_BIAS_STD, n)
+class _EgoSensors(PairState):
+    """Wheel-speed and accelerometer readings of N vehicles (with a constant accelerometer
+    offset per vehicle); the draws are made for the N vehicles even when resized to fewer."""
 
-    def read(frame: TruthFrame) -> tuple[np.ndarray, np.ndarray]:
-        accel = frame.ego_accel + bias + rng.normal(0.0, ACCEL_STD, n)
-        speed = np.maximum(frame.ego_speed + rng.normal(0.0, WHEEL_SPEED_STD, n), 0.0)
-        return accel, speed
+    _PAIR_AXES = {"_bias": 0}
 
-    return read
+    def __init__(self, n: int, rng: np.random.Generator) -> None:
+        self._rng, self._capacity, self._n = rng, n, n
+        self._bias = rng.normal(0.0, ACCEL_BIAS_STD, n)
+
+    def _resized(self, m: int) -> None:
+        self._n = m
+
+    def __call__(self, frame: TruthFrame) -> tuple[np.ndarray, np.ndarray]:
+        n, cap = self._n, self._capacity
+        accel = frame.ego_accel + self._bias + self._rng.normal(0.0, ACCEL_STD, cap)[:n]
+        noise = self._rng.normal(0.0, WHEEL_SPEED_STD, cap)[:n]
+        return accel, np.maximum(frame.ego_speed + noise, 0.0)
 
 
 @dataclass
@@ -207,14 +214,17 @@ class Perceived:
     ttc: np.ndarray
 
 
-class Perception:
+class Perception(PairState):
     """Sensors, ego-motion filter, every method's estimator, and the oracle, over N pairs.
 
     One step of :meth:`step` turns a truth frame into measurements, the ego-speed estimate,
     one :class:`~acc_fusion.fusion.Estimate` per method, the oracle's warning level (the
     warning rule on ground truth) and the true TTC.  :func:`simulate` adds each method's
     warning logic, the metrics and the driver; the gymnasium environment adds a policy.
+    :meth:`resize` makes it perceive the first m pairs only (:mod:`acc_fusion.slots`).
     """
+
+    _PAIR_AXES = {"_input": 0, "_accel_now": 0}
 
     def __init__(self, config: SimConfig, n: int, seeds: np.random.SeedSequence) -> None:
         cfg, dt = config, config.dt
@@ -227,7 +237,9 @@ class Perception:
             radar_faults=cfg.radar_faults,
             infrared_faults=cfg.infrared_faults,
         )
-        self._read_ego = _ego_sensors(n, np.random.default_rng(s_ego))
+        for sensor in self.sensors:
+            sensor.allocate(n)
+        self._read_ego = _EgoSensors(n, np.random.default_rng(s_ego))
         self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt))
         # The accelerometer (offset removed by the ego filter) is the model's known input.
         fusion = replace(
@@ -241,8 +253,15 @@ class Perception:
         self._input = np.zeros(n)  # ego acceleration over the previous step
         self._accel_now = np.zeros(n)
 
+    def _resized(self, m: int) -> None:
+        self.n = m
+        parts = (*self.sensors, self._read_ego, self.ego, self.oracle, *self.estimators.values())
+        resize_all(parts, m)
+
     def forget(self, pairs: np.ndarray, wheel: np.ndarray) -> None:
         """Start afresh for ``pairs`` (a slot that got a new vehicle)."""
+        for sensor in self.sensors:
+            sensor.forget(pairs)
         self.ego.reset(pairs, wheel)
         self.oracle.reset(pairs)
         for est in self.estimators.values():
@@ -321,7 +340,9 @@ def simulate(
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
     metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
     driver = Driver(n, cfg.driver, seed=np.random.default_rng(s_driver)) if cfg.drive else None
-    silent = np.zeros(n, dtype=np.int8)
+    # Every stage works on the prefix of slots that holds the active pairs (acc_fusion.slots).
+    stages = [perception, *logic.values(), *metrics.values(), *([driver] if driver else [])]
+    extent = Extent(n)
 
     steps = 0
     t_last = source.t
@@ -333,9 +354,15 @@ def simulate(
             unit="step",
             leave=False,
         ):
-            frame = source.frame()
-            active = source.active
+            frame, active, collided = source.frame(), source.active, source.collided
             new = getattr(source, "reassigned", None)
+            size = extent.size
+            if extent.fit(active) != size:
+                resize_all(stages, extent.size)
+            if extent.size < n:
+                m = extent.size
+                frame, active, collided = frame.head(m), active[:m], collided[:m]
+                new = None if new is None else new[:m]
             p = perception.step(frame, active, new)
             if new is not None and new.any():
                 for m in cfg.methods:
@@ -346,25 +373,29 @@ def simulate(
             for m in cfg.methods:
                 levels[m] = logic[m].step(**warning_inputs(p, m, active))
                 metrics[m].update(
-                    frame.t, levels[m], p.oracle, p.ttc, frame.ego_speed, active, source.collided
+                    frame.t, levels[m], p.oracle, p.ttc, frame.ego_speed, active, collided
                 )
             t_last = frame.t
             if on_step is not None:
                 on_step(StepView(frame, p.measurements, p.estimates, levels, p.oracle, p.ttc))
             brake = None
-            if driver is not None:
-                brake = driver.step(levels[cfg.drive] if warnings_on else silent, frame)
+            if driver is not None:  # the brake requests of the slots beyond the prefix: none
+                heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)
+                brake = np.zeros(n)
+                brake[: frame.n_pairs] = driver.step(heard, frame)
             source.advance(brake)
             perception.advanced()
             steps += 1
             if source.done:
                 break
     except AccFusionError as exc:  # the source failed mid-run: keep what was measured
+        resize_all(metrics.values(), n)
         for m in metrics.values():
             m.finish(t_last)
         exc.summaries = {m: metrics[m].summary() for m in cfg.methods}
         raise
     t_end = source.t
+    resize_all(metrics.values(), n)
     for m in metrics.values():
         m.finish(t_end)
     return SimResult(

@@ -35,6 +35,7 @@ from numba import njit
 from scipy.stats import chi2
 
 from acc_fusion.errors import ConfigError
+from acc_fusion.slots import PairState
 from acc_fusion.validation import check_range
 
 
@@ -73,8 +74,12 @@ class FDIConfig:
             )
 
 
-class WindowedChiSquare:
+class WindowedChiSquare(PairState):
     """Per pair and per sensor NIS gate and window test (see the module docstring)."""
+
+    _PAIR_AXES = dict.fromkeys(
+        ("_buf", "_sum", "_count", "_pos", "isolated", "_verdict", "_age"), 0
+    )
 
     def __init__(self, n_pairs: int, n_sensors: int, config: FDIConfig, dof: int = 2) -> None:
         self.config = config

@@ -66,6 +66,7 @@ from acc_fusion.models import (
     ca_transition,
     ego_input,
 )
+from acc_fusion.slots import PairState
 from acc_fusion.validation import check_array, check_choice, check_range
 
 if TYPE_CHECKING:
@@ -191,8 +192,10 @@ class Estimate:
         return np.sqrt(self.p[:, 0, 0])
 
 
-class Estimator(ABC):
+class Estimator(PairState, ABC):
     """Common track management and input checks; subclasses implement ``_advance``."""
+
+    _PAIR_AXES = {"initialised": 0, "_target": 0, "_last": 0, "_nis": 0}
 
     def __init__(self, sensors: Sequence[str], n_pairs: int, config: FusionConfig) -> None:
         if n_pairs < 1:
@@ -214,6 +217,9 @@ class Estimator(ABC):
     @property
     def n_sensors(self) -> int:
         return len(self.sensors)
+
+    def _resized(self, m: int) -> None:
+        self.n_pairs = m
 
     def reset(self) -> None:
         """Forget every track."""
@@ -365,6 +371,10 @@ class _OneFilter(Estimator):
     def _reset_state(self):
         self.bank = self.engine.bank(1, self.n_pairs, STATE_DIM)
 
+    def _resized(self, m):
+        super()._resized(m)
+        self.bank.resize(m)
+
     def _drop(self, pairs):
         pass  # the filter is overwritten when the pair initialises again
 
@@ -433,6 +443,10 @@ class CentralizedFilter(_OneFilter):
 class FederatedFilter(Estimator):
     """Carlson's federated Kalman filter (see the module docstring); ``plain`` = no sharing."""
 
+    _PAIR_AXES = {
+        **Estimator._PAIR_AXES, "beta": 1, "_seen": 1, "_needed": 1, "_reported_at": 1
+    }  # fmt: skip
+
     def __init__(self, sensors, n_pairs, config, plain: bool = False, specs=None) -> None:
         self.plain = plain
         self._coverage = (
@@ -472,6 +486,13 @@ class FederatedFilter(Estimator):
         self._reported_at = np.full((s, n), -np.inf)
         self._k = 0
 
+    def _resized(self, m):
+        super()._resized(m)
+        self._infl = None
+        for part in (self.locals, self.master, self.fdi):
+            if part is not None:
+                part.resize(m)
+
     def _drop(self, pairs):
         self.beta[:, pairs] = self._beta0[:, None]
         self._infl = None
@@ -479,6 +500,10 @@ class FederatedFilter(Estimator):
         self._needed[:, pairs] = False
         if self.fdi is not None:
             self.fdi.reset(pairs)
+
+    def forget(self, pairs):
+        super().forget(pairs)
+        self._reported_at[:, np.asarray(pairs, dtype=bool)] = -np.inf  # a new vehicle's track
 
     def _reported(self) -> np.ndarray:
         r"""Tracks confirmed by every sensor that should see them.
@@ -632,6 +657,8 @@ class SteadyStateFilter(Estimator):
             covs.append(f @ covs[-1] @ f.T + q)
         self.cov_table = np.array(covs)
         super().__init__(sensors, n_pairs, config)
+
+    _PAIR_AXES = {**Estimator._PAIR_AXES, "x": 0, "since": 0}
 
     def _reset_state(self):
         self.x = np.zeros((self.n_pairs, STATE_DIM))

@@ -71,6 +71,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.errors import ConfigError, InputError
+from acc_fusion.slots import PairState
 from acc_fusion.stats import Distribution, Histogram, Rate
 from acc_fusion.validation import check_array, check_range
 
@@ -84,13 +85,15 @@ TTC_BINS = (0.0, 60.0, 0.01)
 _COUNTS = ("warnings", "false_alarms", "threats", "detected", "missed", "collisions")
 
 
-class _Events:
+class _Events(PairState):
     """Per-pair state of one kind of event (warnings or threats); see the module docstring.
 
     ``on``: the flag was set at the last step; ``live``, ``matched``: the pair's current
     event; ``start``: its onset time; ``end``: the end of its last closed interval.  A step
     is :func:`_event_step`.
     """
+
+    _PAIR_AXES = dict.fromkeys(("on", "live", "matched", "start", "end"), 0)
 
     def __init__(self, n_pairs: int) -> None:
         self.on = np.zeros(n_pairs, dtype=bool)
@@ -210,7 +213,7 @@ def event_rates(count: dict, hours: float, km: float, confidence: float = 0.95) 
     }
 
 
-class FCWMetrics:
+class FCWMetrics(PairState):
     """Streaming false-alarm, miss, lead-time and TTC metrics over N pairs.
 
     Args:
@@ -224,6 +227,11 @@ class FCWMetrics:
     :meth:`finish` the instance can record another run (its time may start again);
     :meth:`merge` adds the counts of another finished instance to the totals.
     """
+
+    _PAIR_AXES = {
+        "_onset_ttc": 0, "_collided": 0, "_pair_counts": 1, "_pair_driven_s": 0,
+        "_pair_distance_m": 0, "_pair_lead_time_s": 0, "_values": 1,
+    }  # fmt: skip
 
     def __init__(self, n_pairs: int, dt: float, tolerance: float = 1.0, warn_level: int = 1):
         if isinstance(n_pairs, bool) or not isinstance(n_pairs, (int, np.integer)) or n_pairs < 1:
@@ -253,6 +261,11 @@ class FCWMetrics:
         self._ttc_all = Histogram(*TTC_BINS)
         # One step's values: TTC at new warnings, at matched warnings, lead times, speeds.
         self._values = np.empty((4, self.n_pairs))
+
+    def _resized(self, m: int) -> None:
+        self.n_pairs = m
+        self._warnings.resize(m)
+        self._threats.resize(m)
 
     def _levels(self, name: str, value: object) -> np.ndarray:
         arr = np.asarray(value)

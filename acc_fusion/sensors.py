@@ -67,6 +67,7 @@ from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.faults import Fault, Report, apply_faults
 from acc_fusion.models import MEAS_DIM
+from acc_fusion.slots import PairState
 from acc_fusion.truth import TruthFrame
 from acc_fusion.validation import check_interval, check_range
 
@@ -304,7 +305,7 @@ def _streams(seed: int | np.random.Generator | None) -> list[np.random.Generator
     return root.spawn(3)
 
 
-class Sensor:
+class Sensor(PairState):
     """A range/range-rate sensor over N pairs: timing, limits, noise, clutter and faults.
 
     The model is described in the module docstring.  State (sample clock, clutter, the value a
@@ -329,6 +330,9 @@ class Sensor:
 
     #: Spec used when none is given (subclasses set it); ``None``: a spec is required.
     default_spec = None
+    _PAIR_AXES = {
+        "_held_z": 1, "_held_valid": 0, "_held_ghost": 0, "_ghost_range": 0, "_ghost_life": 0
+    }  # fmt: skip
 
     def __init__(
         self,
@@ -366,11 +370,46 @@ class Sensor:
         if seed is not None:
             self._rng_noise, self._rng_ghost, self._rng_fault = _streams(seed)
         self._n: int | None = None
+        self._capacity = 0  # the pairs the random draws are made for (>= N)
         self._t_prev = -math.inf
         self._k = 0  # index of the next sample time phase + k / rate_hz
-        self._held: Report | None = None
+        self._held_z: np.ndarray | None = None  # (2, N): the last output, what stuck repeats
+        self._held_valid: np.ndarray | None = None
+        self._held_ghost: np.ndarray | None = None
         self._ghost_range: np.ndarray | None = None
         self._ghost_life: np.ndarray | None = None
+        self.__dict__.pop("_parked", None)
+
+    def allocate(self, n: int) -> None:
+        """Fix the number of pairs N (the first :meth:`measure` does it with its frame's N).
+
+        The random draws are made for these N pairs even after :meth:`resize` to fewer."""
+        self._n = self._capacity = n
+        self._held_z = np.full((MEAS_DIM, n), np.nan)
+        self._held_valid = np.zeros(n, dtype=bool)
+        self._held_ghost = np.zeros(n, dtype=bool)
+        self._ghost_range = np.full(n, np.inf)
+        self._ghost_life = np.zeros(n)
+
+    def _resized(self, m: int) -> None:
+        self._n = m
+
+    def forget(self, pairs: np.ndarray) -> None:
+        """Clear the clutter and the held output of ``pairs`` (a slot that got a new
+        vehicle: its sensor has seen nothing yet)."""
+        self._held_z[:, pairs] = np.nan
+        self._held_valid[pairs] = False
+        self._held_ghost[pairs] = False
+        self._ghost_range[pairs] = np.inf
+        self._ghost_life[pairs] = 0.0
+
+    def _draw(self, draw, rows: int = 0) -> np.ndarray:
+        """``draw(shape)`` for every allocated pair (``rows`` > 0: ``(rows, pairs)``), cut to
+        the N pairs held now, so that each pair's draws do not depend on N."""
+        n, cap = self._n, self._capacity
+        if rows == 0:
+            return draw(cap)[:n]
+        return np.ascontiguousarray(draw((rows, cap))[:, :n])
 
     def measure(self, frame: TruthFrame) -> Measurement:
         """Return the sensor's measurement of ``frame`` (``valid`` all False between samples).
@@ -383,8 +422,8 @@ class Sensor:
         self._advance_ghosts(frame, dt)
         if not self._sample_due(frame.t):
             return _empty(frame.t, self.spec.name, n)
-        detect_u = self._rng_noise.random(n)
-        e = self._rng_noise.standard_normal((MEAS_DIM, n))
+        detect_u = self._draw(self._rng_noise.random)
+        e = self._draw(self._rng_noise.standard_normal, MEAS_DIM)
         # numpy's arctan2 (SIMD) and libm's may differ in the last bit: the bearings come from
         # numpy, unless every offset is zero (the kernel then uses the exact atan2(0, gap)).
         lat = frame.lateral_offset
@@ -399,15 +438,17 @@ class Sensor:
         active = [f for f in self.faults if f.active(frame.t)]
         if active:
             clean_report = Report(clean.T, seen, seen_ghost)
-            out = apply_faults(active, frame.t, clean_report, noise.T, self._held, self._rng_fault)
+            held = Report(self._held_z.T, self._held_valid, self._held_ghost)
+            out = apply_faults(
+                active, frame.t, clean_report, noise.T, held, self._rng_fault, self._capacity
+            )
         else:
             out = Report((clean + noise).T, seen, seen_ghost)
-        held = self._held
         z, r = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, MEAS_DIM, n))
         valid, ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
         _emit(
-            out.z.T, out.valid, out.ghost, held.z.T, held.valid, held.ghost, self._emit_params,
-            z, r, valid, ghost,
+            out.z.T, out.valid, out.ghost, self._held_z, self._held_valid, self._held_ghost,
+            self._emit_params, z, r, valid, ghost,
         )  # fmt: skip
         online = not any(f.kind == "dropout" for f in active)
         return Measurement(frame.t, self.spec.name, z.T, r.transpose(2, 0, 1), valid, ghost, online)
@@ -418,12 +459,7 @@ class Sensor:
             raise InputError(f"measure() needs a TruthFrame, got {type(frame).__name__}")
         n = frame.n_pairs
         if self._n is None:
-            self._n = n
-            self._held = Report(
-                np.full((MEAS_DIM, n), np.nan).T, np.zeros(n, bool), np.zeros(n, bool)
-            )
-            self._ghost_range = np.full(n, np.inf)
-            self._ghost_life = np.zeros(n)
+            self.allocate(n)
         elif n != self._n:
             raise InputError(
                 f"frame has {n} pairs but {self.spec.name} was started with {self._n}; "
@@ -448,7 +484,7 @@ class Sensor:
         spec = self.spec
         if spec.ghost_rate == 0.0:
             return
-        u = self._rng_ghost.random((3, frame.n_pairs))
+        u = self._draw(self._rng_ghost.random, 3)
         _move_ghosts(
             u, frame.ego_speed, dt, -math.expm1(-spec.ghost_rate * dt), *spec.ghost_range,
             *spec.ghost_duration, self._ghost_range, self._ghost_life,

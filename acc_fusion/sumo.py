@@ -672,13 +672,16 @@ class SumoSource(SlotSource):
 
     def set_warning_colors(self, levels: np.ndarray) -> None:
         """Colour each slot's vehicle by its warning level (0 green, 1 amber, 2 red); only
-        changed colours are sent.  Meant for ``gui``; harmless without."""
+        changed colours are sent.  ``levels`` covers every slot or the first ones (the prefix
+        a pipeline works on, :mod:`acc_fusion.slots`; the slots beyond it are empty).  Meant
+        for ``gui``; harmless without."""
         if self._closed:
             return
         lv = np.clip(np.asarray(levels, dtype=np.int64).reshape(-1), 0, len(WARNING_COLORS) - 1)
-        if lv.shape != (self.n_pairs,):
-            raise ConfigError(f"levels must have shape ({self.n_pairs},), got {lv.shape}")
-        changed = np.flatnonzero(self._active & (lv != self._shown_level))
+        m = lv.shape[0]
+        if not 1 <= m <= self.n_pairs:
+            raise ConfigError(f"levels must hold 1 to {self.n_pairs} slots' levels, got {m}")
+        changed = np.flatnonzero(self._active[:m] & (lv != self._shown_level[:m]))
         set_color, vids = self._api.vehicle.setColor, self._slot_vid
 
         def paint() -> None:

@@ -59,11 +59,11 @@ class _MinTTC:
         self.min_ttc: dict[str, float] = {}
 
     def __call__(self, view: StepView) -> None:
-        ids = self.source.vehicle_ids
-        for k in np.flatnonzero(np.isfinite(view.ttc) & self.source.active):
+        ids, ttc = self.source.vehicle_ids, view.ttc  # ttc: the first slots, every occupied one
+        for k in np.flatnonzero(np.isfinite(ttc) & self.source.active[: len(ttc)]):
             vid = ids[k]
             if vid is not None:
-                self.min_ttc[vid] = min(self.min_ttc.get(vid, np.inf), float(view.ttc[k]))
+                self.min_ttc[vid] = min(self.min_ttc.get(vid, np.inf), float(ttc[k]))
 
 
 def _then(first, second):

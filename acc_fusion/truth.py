@@ -102,6 +102,13 @@ class TruthFrame:
         """Number of follower→leader pairs N."""
         return int(self.leader_id.shape[0])
 
+    def head(self, m: int) -> TruthFrame:
+        """The frame of the first ``m`` pairs (views of this frame's arrays, no checks)."""
+        fields = ("ego_speed", "ego_accel", "gap", "lead_speed", "lead_accel", "leader_id")
+        return TruthFrame.from_arrays(
+            self.t, *(getattr(self, f)[:m] for f in fields), self.lateral_offset[:m]
+        )
+
     @property
     def has_leader(self) -> np.ndarray:
         """Boolean mask of the pairs that have a leader."""

@@ -42,6 +42,7 @@ from numba import njit
 from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.safety import SAFETY_MODELS, distances_unchecked, model_constants
+from acc_fusion.slots import PairState
 from acc_fusion.validation import check_array, check_choice, check_range
 
 NONE, CAUTION, IMMINENT = 0, 1, 2
@@ -105,7 +106,7 @@ def _per_pair(value: object, n: int) -> np.ndarray:
     return np.full(n, arr) if arr.ndim == 0 else arr
 
 
-class WarningLogic:
+class WarningLogic(PairState):
     """Batched warning state machine over N pairs (rules in the module docstring).
 
     Args:
@@ -113,6 +114,8 @@ class WarningLogic:
         n_pairs: number of follower→leader pairs N.
         dt: step of the calls to :meth:`step` [s].
     """
+
+    _PAIR_AXES = dict.fromkeys(("_on", "_steps_on", "_history", "_count"), 1)
 
     def __init__(self, config: WarningConfig, n_pairs: int, dt: float) -> None:
         if not isinstance(n_pairs, (int, np.integer)) or n_pairs < 1:
@@ -138,6 +141,9 @@ class WarningLogic:
         self._steps_on[:, sel] = 0
         self._history[:, sel] = False
         self._count[:, sel] = 0
+
+    def _resized(self, m: int) -> None:
+        self.n_pairs = m
 
     @property
     def level(self) -> np.ndarray:

@@ -21,9 +21,11 @@ import pytest
 
 libsumo = pytest.importorskip("libsumo")
 
+import acc_fusion.fcw as fcw  # noqa: E402
 import acc_fusion.sumo as sumo_mod  # noqa: E402
 from acc_fusion.errors import ConfigError  # noqa: E402
 from acc_fusion.fcw import SimConfig, simulate  # noqa: E402
+from acc_fusion.slots import Extent  # noqa: E402
 from acc_fusion.sumo import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
 from acc_fusion.sumo_background import COUNTERS, BackgroundSumoSource, _Outbox  # noqa: E402
 
@@ -549,3 +551,73 @@ def test_simulate_gives_the_same_summary(road):
     with BackgroundSumoSource(cfg) as src:
         background = simulate(replace(sim), source=src).summaries
     assert background == inline and inline["federated"].warnings > 0
+
+
+def _run_recording_the_occupied_slots(sim, source):
+    """``simulate`` ``sim`` on ``source``; returns the result, every step's output on the
+    slots that hold a vehicle, the prefix lengths the stages worked on and how many slots
+    were given to new vehicles."""
+    steps, sizes, new = [], set(), 0
+
+    def record(view):
+        nonlocal new
+        m = view.frame.n_pairs
+        sizes.add(m)
+        new += int(source.reassigned.sum())
+        act = source.active[:m]
+        assert not source.active[m:].any()
+        out = [view.oracle[act], view.ttc[act]]
+        out += [meas.z[act] for meas in view.measurements]
+        for name, est in view.estimates.items():
+            ok = est.valid[act]
+            out += [ok, est.x[act][ok], est.p[act][ok], view.levels[name][act]]
+        steps.append(out)
+
+    with source:
+        result = simulate(replace(sim), source=source, on_step=record)
+    return result, steps, sizes, new
+
+
+#: Two waves of cars: the first has left the road before the second comes, so the slots
+#: of the first are set aside and then given to the cars of the second.
+WAVES = (
+    ROUTES[: ROUTES.index("  <flow")]
+    + """  <flow id="a" type="car" route="r0" begin="0" end="20" vehsPerHour="3600"
+        departLane="random" departSpeed="max"/>
+  <flow id="b" type="car" route="r0" begin="140" end="200" vehsPerHour="2400"
+        departLane="random" departSpeed="max"/>
+</routes>
+"""
+)
+
+
+@pytest.mark.parametrize("drive", [None, "federated"])
+def test_the_run_on_the_occupied_slots_equals_the_run_on_every_slot(
+    road, tmp_path, monkeypatch, drive
+):
+    """Open loop and closed loop (the warned drivers brake, so the traffic itself depends on
+    every warning): the same measurements, estimates, levels, metrics and collisions, as the
+    slots of vehicles that left are set aside and later given to new vehicles."""
+    (tmp_path / "waves.rou.xml").write_text(WAVES)
+    (tmp_path / "waves.sumocfg").write_text(
+        sumocfg(str(road / "road.net.xml"), "waves.rou.xml", end=200.0)
+    )
+    cfg = SumoConfig(str(tmp_path / "waves.sumocfg"), capacity=64, hazard_rate=60.0, seed=2)
+    methods = ("radar", "infrared", "centralized", "federated")
+    sim = SimConfig(
+        runs=1, dt=0.1, methods=methods if drive is None else (drive,), drive=drive,
+        radar={"ghost_rate": 2.0},
+    )  # fmt: skip
+    runs = []
+    for quantum in (8, 64):  # 64 = the capacity: every slot at every step
+        monkeypatch.setattr(fcw, "Extent", lambda n, q=quantum: Extent(n, quantum=q))
+        runs.append(_run_recording_the_occupied_slots(sim, SumoSource(cfg)))
+    (prefix, steps_prefix, sizes, new), (full, steps_full, _, _) = runs
+    assert len(sizes) > 3 and new > 30  # the prefix moved; slots were given to new vehicles
+    for a, b in zip(steps_prefix, steps_full, strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
+    assert prefix.summaries == full.summaries
+    np.testing.assert_array_equal(prefix.collided, full.collided)
+    assert prefix.summaries[methods[-1]].warnings > 0
+    assert prefix.summaries[methods[-1]].per_pair["hours"].shape == (64,)

@@ -70,10 +70,12 @@ def test_gui_run_colours_vehicles_by_the_driving_methods_warning(monkeypatch):
 
     def record(source, levels):
         paint(source, levels)
+        m = len(levels)  # the prefix of slots the pipeline works on holds every vehicle
+        assert not source.active[m:].any()
         for slot in np.flatnonzero(source.active):
             colour = tuple(source._api.vehicle.getColor(source.vehicle_ids[slot]))
             assert colour == sumo_mod.WARNING_COLORS[levels[slot]]
-        shown.append(np.asarray(levels)[source.active])
+        shown.append(np.asarray(levels)[source.active[:m]])
 
     monkeypatch.setattr(SumoSource, "set_warning_colors", record)
     cfg = SumoConfig(

@@ -1,0 +1,53 @@
+"""The pipeline works on the prefix of occupied slots, with the results of the whole capacity."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acc_fusion.errors import ConfigError
+from acc_fusion.metrics import FCWMetrics
+from acc_fusion.slots import Extent
+from acc_fusion.warning import WarningConfig, WarningLogic
+
+
+def test_resize_parks_the_tail_and_growing_back_restores_it():
+    metrics = FCWMetrics(8, dt=0.1)
+    metrics._pair_driven_s[:] = np.arange(8.0)
+    metrics._warnings.start[:] = np.arange(8.0) + 10
+    metrics.resize(3)
+    assert metrics.n_pairs == 3 and metrics._pair_counts.shape == (6, 3)
+    np.testing.assert_array_equal(metrics._warnings.start, [10.0, 11.0, 12.0])
+    metrics._pair_driven_s[:] += 100.0  # the held pairs move on; the parked ones do not
+    metrics.resize(5)
+    np.testing.assert_array_equal(metrics._pair_driven_s, [100, 101, 102, 3, 4])
+    metrics.resize(8)
+    np.testing.assert_array_equal(metrics._pair_driven_s, [100, 101, 102, 3, 4, 5, 6, 7])
+    np.testing.assert_array_equal(metrics._warnings.start, np.arange(8.0) + 10)
+    with pytest.raises(ConfigError, match="FCWMetrics can hold 1 to 8 pairs, got 9"):
+        metrics.resize(9)
+
+
+def test_a_resized_stage_takes_inputs_of_its_new_size():
+    logic = WarningLogic(WarningConfig(), 6, dt=0.1)
+    logic.resize(2)
+    level = logic.step(np.array([5.0, 80.0]), 20.0, np.array([-10.0, 0.0]))
+    assert level.shape == (2,) and level[0] > 0 == level[1]
+
+
+def test_extent_covers_the_active_slots_and_those_active_a_step_ago():
+    extent = Extent(256, quantum=16)
+    active = np.zeros(256, dtype=bool)
+    active[[0, 20]] = True
+    assert extent.fit(active) == 32  # slot 20 needs 21 slots, rounded up to two quanta
+    active[20] = False
+    assert extent.fit(active) == 32  # slot 20 emptied: seen empty once more
+    assert extent.fit(active) == 32  # 16 would do, but a prefix shrinks by two quanta or more
+    active[100] = True
+    assert extent.fit(active) == 112  # grows at once
+    active[100] = False
+    extent.fit(active)
+    assert extent.fit(active) == 16
+    assert extent.fit(np.zeros(256, dtype=bool)) == 16  # never empty
+    active[:] = True
+    assert extent.fit(active) == 256
