@@ -73,31 +73,50 @@ OUTBOX_LIMIT = 64 << 20
 CLOSE_TIMEOUT = 30.0
 
 
-#: The float ``(N,)`` arrays of a frame message, packed as the rows of one array.
+#: The float ``(N,)`` arrays of a frame message, packed as the rows of one array, and their
+#: values in a slot without a vehicle (nor a collision to report).
 _FLOAT_ROWS = ("ego_speed", "ego_accel", "gap", "lead_speed", "lead_accel", "lateral_offset")
-#: The boolean ``(N,)`` slot arrays of a frame message, packed likewise.
+_EMPTY_FLOATS = (0.0, 0.0, np.nan, np.nan, np.nan, 0.0, np.nan)  # the last: collision speed
+#: The boolean ``(N,)`` slot arrays of a frame message, packed likewise (empty: False).
 _FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
 
 
-def _snapshot(src: SumoSource, ids_changed: bool, caught: list) -> tuple:
-    """What the parent needs of the source's current step (the slot ids only when changed).
+class _Snapshots:
+    """The frame messages of a source, step by step (the child's side of :meth:`_take`).
 
-    The ``(N,)`` arrays travel as three arrays (floats, leader ids, flags) rather than twelve:
-    pickling costs per array more than per byte at these sizes."""
-    frame = src.frame()
-    floats = np.array([getattr(frame, name) for name in _FLOAT_ROWS] + [src.collision_speed])
-    flags = np.array([getattr(src, name) for name in _FLAG_ROWS])
-    return (
-        "frame",
-        frame.t,
-        floats,
-        frame.leader_id,
-        flags,
-        src.vehicle_ids if ids_changed else None,
-        src.done,
-        tuple(getattr(src, c) for c in COUNTERS),
-        [(w.category, str(w.message)) for w in caught],
-    )
+    The ``(N,)`` arrays travel as three arrays (floats, leader ids, flags) rather than twelve
+    (pickling costs per array more than per byte at these sizes), cut after the last slot
+    that holds a vehicle or a collision flag: the slots beyond hold the values of an empty
+    slot, which the parent fills in.  The slot ids travel as the slots whose id changed.
+    """
+
+    def __init__(self, n_pairs: int) -> None:
+        self._known: list[str | None] = [None] * n_pairs  # the slot ids the parent has
+        self._reach = 0  # one past the last slot that held a vehicle in the last message
+
+    def __call__(self, src: SumoSource, caught: list) -> tuple:
+        """The message of ``src``'s current step, with the warnings ``caught`` during it."""
+        frame = src.frame()
+        floats = np.array([getattr(frame, name) for name in _FLOAT_ROWS] + [src.collision_speed])
+        flags = np.array([getattr(src, name) for name in _FLAG_ROWS])
+        used = np.flatnonzero(flags.any(axis=0))
+        k = int(used[-1]) + 1 if used.size else 0
+        ids, known = src.vehicle_ids, self._known
+        changed = {i: ids[i] for i in range(max(k, self._reach)) if ids[i] != known[i]}
+        for i, vehicle in changed.items():
+            known[i] = vehicle
+        self._reach = k
+        return (
+            "frame",
+            frame.t,
+            floats[:, :k].copy(),
+            frame.leader_id[:k].copy(),
+            flags[:, :k].copy(),
+            changed,
+            src.done,
+            tuple(getattr(src, c) for c in COUNTERS),
+            [(w.category, str(w.message)) for w in caught],
+        )
 
 
 def _failure(exc: BaseException) -> tuple:
@@ -174,8 +193,8 @@ def _serve(config: SumoConfig, conn: Any) -> None:
             outbox = _Outbox(conn.fileno(), OUTBOX_LIMIT)
             meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
             outbox.put(("meta", meta))
-            ids = src.vehicle_ids
-            outbox.put(_snapshot(src, True, caught))
+            snapshot = _Snapshots(src.n_pairs)
+            outbox.put(snapshot(src, caught))
             while not src.done:
                 caught.clear()
                 try:
@@ -183,9 +202,7 @@ def _serve(config: SumoConfig, conn: Any) -> None:
                 except Exception as exc:  # SUMO failed: the parent raises it at this frame
                     outbox.put(_failure(exc))
                     break
-                now = src.vehicle_ids
-                outbox.put(_snapshot(src, now != ids, caught))
-                ids = now
+                outbox.put(snapshot(src, caught))
             outbox.close()
             while conn.recv() == "ssm":
                 conn.send(("ssm", src.ssm_min_ttc()))
@@ -244,7 +261,8 @@ class BackgroundSumoSource(SlotSource):
             meta = self._receive("meta")[1]
             self.dt, self.begin, self.end_time = meta["dt"], meta["begin"], meta["end_time"]
             self.n_pairs, self._n_steps = meta["n_pairs"], meta["n_steps"]
-            self._vehicle_ids: list[str | None] = []
+            self._vehicle_ids: list[str | None] = [None] * self.n_pairs
+            self._empty_floats = np.array(_EMPTY_FLOATS)[:, None].repeat(self.n_pairs, axis=1)
             self._k = 0
             self._take(self._receive("frame"))
         except BaseException:
@@ -275,13 +293,18 @@ class BackgroundSumoSource(SlotSource):
         return message
 
     def _take(self, message: tuple) -> None:
-        (_, t, floats, leader_id, flags, ids, done, counts, caught) = message
+        """Take a frame message of :class:`_Snapshots`: fill in the empty slots beyond it."""
+        (_, t, head, head_leader, head_flags, ids, done, counts, caught) = message
+        n, k = self.n_pairs, head_leader.shape[0]
+        floats, leader_id = self._empty_floats.copy(), np.full(n, -1, dtype=np.int64)
+        flags = np.zeros((len(_FLAG_ROWS), n), dtype=bool)
+        floats[:, :k], leader_id[:k], flags[:, :k] = head, head_leader, head_flags
         *values, self._collision_speed = floats
         self._frame = TruthFrame.from_arrays(t, *values[:5], leader_id, lateral_offset=values[5])
         self._active, self._reassigned, self._collided, self._inattentive = flags
         self._done = done
-        if ids is not None:
-            self._vehicle_ids = ids
+        for slot, vehicle in ids.items():
+            self._vehicle_ids[slot] = vehicle
         for name, value in zip(COUNTERS, counts, strict=True):
             setattr(self, name, value)
         for category, text in caught:

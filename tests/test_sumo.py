@@ -591,18 +591,37 @@ WAVES = (
 )
 
 
+@pytest.fixture
+def waves(road, tmp_path) -> str:
+    """The ``.sumocfg`` of :data:`WAVES` on the road (200 s)."""
+    (tmp_path / "waves.rou.xml").write_text(WAVES)
+    cfg = tmp_path / "waves.sumocfg"
+    cfg.write_text(sumocfg(str(road / "road.net.xml"), "waves.rou.xml", end=200.0))
+    return str(cfg)
+
+
+def test_same_frames_as_the_in_process_source_as_slots_empty_and_fill_again(waves):
+    """The background source sends only the slots up to the last one in use, and the slot
+    ids that changed: the parent's frames are still those of the in-process source."""
+    cfg = SumoConfig(waves, capacity=64, hazard_rate=200.0, inattentive=0.5, seed=5)
+    with SumoSource(cfg) as src:
+        inline = trace(src)
+    with BackgroundSumoSource(cfg) as src:
+        background = trace(src)
+    for a, b in zip(inline, background, strict=True):
+        assert a[0] == b[0] and a[5] == b[5] and a[6] == b[6]
+        for x, y in zip(a[1:5], b[1:5], strict=True):
+            np.testing.assert_array_equal(x, y)
+    empty = [not step[3][0].any() for step in inline]  # between the waves
+    assert any(empty) and not empty[-1] and inline[-1][6][4] > 0  # and some collisions
+
+
 @pytest.mark.parametrize("drive", [None, "federated"])
-def test_the_run_on_the_occupied_slots_equals_the_run_on_every_slot(
-    road, tmp_path, monkeypatch, drive
-):
+def test_the_run_on_the_occupied_slots_equals_the_run_on_every_slot(waves, monkeypatch, drive):
     """Open loop and closed loop (the warned drivers brake, so the traffic itself depends on
     every warning): the same measurements, estimates, levels, metrics and collisions, as the
     slots of vehicles that left are set aside and later given to new vehicles."""
-    (tmp_path / "waves.rou.xml").write_text(WAVES)
-    (tmp_path / "waves.sumocfg").write_text(
-        sumocfg(str(road / "road.net.xml"), "waves.rou.xml", end=200.0)
-    )
-    cfg = SumoConfig(str(tmp_path / "waves.sumocfg"), capacity=64, hazard_rate=60.0, seed=2)
+    cfg = SumoConfig(waves, capacity=64, hazard_rate=60.0, seed=2)
     methods = ("radar", "infrared", "centralized", "federated")
     sim = SimConfig(
         runs=1, dt=0.1, methods=methods if drive is None else (drive,), drive=drive,
