@@ -32,7 +32,7 @@ from acc_fusion.scenarios import SCENARIOS, make_scenario
 from acc_fusion.sensors import Measurement, infrared_spec, radar_spec
 from acc_fusion.slots import Extent, PairState, resize_all
 from acc_fusion.studies import SENSOR_NAMES, make_sensors
-from acc_fusion.truth import TruthFrame
+from acc_fusion.truth import SlotSource, TruthFrame
 from acc_fusion.validation import check_choice, check_range
 from acc_fusion.warning import IMMINENT, WarningConfig, WarningLogic
 
@@ -110,7 +110,10 @@ class SimConfig:
 
 @dataclass
 class StepView:
-    """What one step of :func:`simulate` produced (handed to ``on_step`` callbacks)."""
+    """What one step of :func:`simulate` produced (handed to ``on_step`` callbacks).
+
+    With a source of slots (SUMO, highway-env) the arrays cover the first
+    ``frame.n_pairs`` slots, which hold every vehicle (:mod:`acc_fusion.slots`)."""
 
     frame: TruthFrame
     measurements: list[Measurement]
@@ -340,9 +343,10 @@ def simulate(
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
     metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
     driver = Driver(n, cfg.driver, seed=np.random.default_rng(s_driver)) if cfg.drive else None
-    # Every stage works on the prefix of slots that holds the active pairs (acc_fusion.slots).
+    # With a source of slots (SUMO, highway-env), every stage works on the prefix of slots
+    # that holds the vehicles (acc_fusion.slots); a scripted batch keeps all its runs.
     stages = [perception, *logic.values(), *metrics.values(), *([driver] if driver else [])]
-    extent = Extent(n)
+    extent = Extent(n) if isinstance(source, SlotSource) else Extent(n, quantum=n)
 
     steps = 0
     t_last = source.t
