@@ -360,13 +360,13 @@ def simulate(
         ):
             frame, active, collided = source.frame(), source.active, source.collided
             new = getattr(source, "reassigned", None)
-            size = extent.size
-            if extent.fit(active) != size:
-                resize_all(stages, extent.size)
-            if extent.size < n:
-                m = extent.size
-                frame, active, collided = frame.head(m), active[:m], collided[:m]
-                new = None if new is None else new[:m]
+            k = extent.size
+            if extent.fit(active) != k:
+                k = extent.size
+                resize_all(stages, k)
+            if k < n:
+                frame, active, collided = frame.head(k), active[:k], collided[:k]
+                new = None if new is None else new[:k]
             p = perception.step(frame, active, new)
             if new is not None and new.any():
                 for m in cfg.methods:
