@@ -130,6 +130,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.errors import AccFusionError, ConfigError
 from acc_fusion.truth import SlotSource, TruthFrame
@@ -536,7 +537,10 @@ class SumoSource(SlotSource):
         self._occ_vids: list[str] = []
         self._dirty = False
         self._min_gap = np.zeros(n)
-        self._prev_speed = np.full(n, np.nan)  # speed at the previous step, NaN: new vehicle
+        self._prev_speed = np.zeros(n)  # each slot's speed at the previous step
+        # SUMO's acceleration of the vehicles new to their slot (read once), NaN elsewhere.
+        self._new_accel = np.full(n, np.nan)
+        self._new_slots: list[int] = []
         self._inattentive = np.zeros(n, dtype=bool)
         self._collided = np.zeros(n, dtype=bool)
         self._collision_speed = np.full(n, np.nan)
@@ -885,8 +889,10 @@ class SumoSource(SlotSource):
             self._collision_speed[slot] = np.nan
             self._shown_level[slot] = -1
             self._ssm_slot[slot] = np.inf
-            self._prev_speed[slot] = np.nan
             self._min_gap[slot] = float(veh.getMinGap(vid))
+            if not self._subscribed:  # TraCI subscribes to every vehicle's acceleration
+                self._new_accel[slot] = float(veh.getAcceleration(vid))
+                self._new_slots.append(slot)
             self._inattentive[slot] = self._info[vid][2]
             self._dirty = True
         if self._waiting and not self._capacity_warned:
@@ -932,63 +938,94 @@ class SumoSource(SlotSource):
         return bool(freed)
 
     def _fill(self) -> TruthFrame:
-        """The frame of the occupied slots (one pass over them per quantity)."""
-        n, slots, vids = self.n_pairs, self._occ_slots, self._occ_vids
-        veh, res, dt = self._api.vehicle, self._res, self.dt
+        """The frame of the occupied slots: SUMO's values read with one pass over the
+        vehicles per quantity, then arranged into the slots by :func:`_frame_arrays`."""
+        slots, vids = self._occ_slots, self._occ_vids
+        veh, res = self._api.vehicle, self._res
         sp, ac, ld = self._v_speed, self._v_accel, self._v_leader
-        ego_v, ego_a = np.zeros(n), np.zeros(n)
-        gap, lead_v, lead_a = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
-        leader = np.full(n, -1, dtype=np.int64)
-        if vids:
-            if self._subscribed:
-                rows = [res[v] for v in vids]
-                ego_v[slots] = [r[sp] for r in rows]
-                ego_a[slots] = [r[ac] for r in rows]
-                leaders = [r[ld] or _NO_LEADER for r in rows]  # TraCI: None without
-            else:
-                m = len(vids)  # map over C functions: no Python frame per vehicle
-                ego_v[slots] = np.fromiter(map(self._get_speed, vids), float, m)
-                leaders = list(map(self._get_leader, vids, repeat(self.config.lookahead)))
-                # SUMO's acceleration is (v(t) - v(t - dt)) / dt exactly: only vehicles new
-                # to their slot need the getter.
-                prev = self._prev_speed[slots]
-                ego_a[slots] = (ego_v[slots] - prev) / dt
-                new = slots[np.isnan(prev)]
-                ego_a[new] = [veh.getAcceleration(self._slot_vid[i]) for i in new]
-            self._prev_speed = ego_v.copy()
-            names, dists = zip(*leaders, strict=True)
-            info = map(self._info.get, names, repeat(_NO_INFO))
-            lint = np.fromiter(map(itemgetter(0), info), np.int64, len(names))
-            lslot = np.fromiter(map(self._slot_of.get, names, repeat(-1)), np.intp, len(names))
-            g = np.array(dists) + self._min_gap[slots]
-            has = (lint >= 0) & (g <= self.config.lookahead)
-            leader[slots[has]] = lint[has]
-            gap[slots[has]] = g[has]
-            mine = has & (lslot >= 0)  # the leader is equipped: its values are read already
-            lead_v[slots[mine]] = ego_v[lslot[mine]]
-            lead_a[slots[mine]] = ego_a[lslot[mine]]
-            other = np.flatnonzero(has & (lslot < 0))
-            if other.size:
-                others = [names[i] for i in other]
-                if self._subscribed:
-                    lead_v[slots[other]] = [res[x][sp] for x in others]
-                    lead_a[slots[other]] = [res[x][ac] for x in others]
-                else:
-                    lead_v[slots[other]] = [veh.getSpeed(x) for x in others]
-                    lead_a[slots[other]] = [veh.getAcceleration(x) for x in others]
-            if self.config.ssm:
-                pk = self._v_param
-                ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
-                self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
-        return TruthFrame.from_arrays(
-            t=self._t,
-            ego_speed=ego_v,
-            ego_accel=ego_a,
-            gap=gap,
-            lead_speed=lead_v,
-            lead_accel=lead_a,
-            leader_id=leader,
+        m = len(vids)
+        if self._subscribed:
+            rows = [res[v] for v in vids]
+            speed = np.array([r[sp] for r in rows], dtype=float).reshape(m)
+            accel = np.full(self.n_pairs, np.nan)
+            accel[slots] = [r[ac] for r in rows]
+            leaders = [r[ld] or _NO_LEADER for r in rows]  # TraCI: None without
+        else:  # map over C functions: no Python frame per vehicle
+            speed = np.fromiter(map(self._get_speed, vids), float, m)
+            accel = self._new_accel
+            leaders = list(map(self._get_leader, vids, repeat(self.config.lookahead)))
+        names, dists = zip(*leaders, strict=True) if m else ((), ())
+        info = map(self._info.get, names, repeat(_NO_INFO))
+        ego_v, ego_a, gap, lead_v, lead_a, leader, other = _frame_arrays(
+            self.n_pairs,
+            slots,
+            speed,
+            accel,
+            self._prev_speed,
+            self.dt,
+            np.fromiter(dists, float, m),
+            np.fromiter(map(itemgetter(0), info), np.int64, m),
+            np.fromiter(map(self._slot_of.get, names, repeat(-1)), np.intp, m),
+            self._min_gap,
+            float(self.config.lookahead),
         )
+        if other.size:  # leaders without a slot: their own getters
+            others, at = [names[i] for i in other], slots[other]
+            if self._subscribed:
+                lead_v[at] = [res[x][sp] for x in others]
+                lead_a[at] = [res[x][ac] for x in others]
+            else:
+                lead_v[at] = [veh.getSpeed(x) for x in others]
+                lead_a[at] = [veh.getAcceleration(x) for x in others]
+        if m and self.config.ssm:
+            pk = self._v_param
+            ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
+            self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
+        self._prev_speed = ego_v.copy()
+        if self._new_slots:  # read once, when the vehicle took its slot
+            self._new_accel[self._new_slots] = np.nan
+            self._new_slots.clear()
+        return TruthFrame.from_arrays(self._t, ego_v, ego_a, gap, lead_v, lead_a, leader)
+
+
+@njit(cache=True)
+def _frame_arrays(
+    n, slots, speed, accel, prev_speed, dt, dists, leader_int, leader_slot, min_gap, lookahead
+):  # pragma: no cover - compiled
+    r"""The ``(N,)`` arrays of a frame from the values read for the vehicles in ``slots``.
+
+    Per vehicle ``i`` in slot ``s = slots[i]``: its ``speed[i]``; its acceleration
+    ``accel[s]`` where SUMO's was read (NaN elsewhere), else
+    :math:`(v_k - v_{k-1})/\Delta t` from ``prev_speed[s]`` (SUMO's ``getAcceleration``
+    exactly); its leader ``leader_int[i]`` (``-1``: none) at the bumper-to-bumper gap
+    ``dists[i] + min_gap[s]`` (``getLeader``'s distance plus the follower's ``minGap``),
+    kept up to ``lookahead``, whose speed and acceleration are those of its slot
+    ``leader_slot[i]``.  Empty slots: speed and acceleration 0, the rest NaN and leader
+    ``-1``.  Returns ``ego_speed, ego_accel, gap, lead_speed, lead_accel, leader_id`` and
+    the positions ``i`` whose kept leader has no slot (an unequipped vehicle, whose speed
+    and acceleration the caller reads).
+    """
+    ego_v, ego_a = np.zeros(n), np.zeros(n)
+    gap, lead_v, lead_a = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    leader = np.full(n, -1, dtype=np.int64)
+    for i in range(slots.size):
+        s = slots[i]
+        ego_v[s] = speed[i]
+        a = accel[s]
+        ego_a[s] = a if not np.isnan(a) else (speed[i] - prev_speed[s]) / dt
+    other = np.empty(slots.size, dtype=np.intp)
+    k = 0
+    for i in range(slots.size):
+        s, g = slots[i], dists[i] + min_gap[slots[i]]
+        if leader_int[i] >= 0 and g <= lookahead:
+            leader[s], gap[s] = leader_int[i], g
+            j = leader_slot[i]
+            if j >= 0:
+                lead_v[s], lead_a[s] = ego_v[j], ego_a[j]
+            else:
+                other[k] = i
+                k += 1
+    return ego_v, ego_a, gap, lead_v, lead_a, leader, other[:k]
 
 
 def _raw(api: Any, name: str, public: Any) -> Any:
