@@ -34,10 +34,10 @@ Processes
     arrays packed into one byte string up to the last slot in use (:class:`_Snapshots`):
     about 60 µs of the child's time per step on the motorway's 300 to 600 vehicles.  The
     source's ``RuntimeWarning`` s (e.g. more equipped vehicles than slots) are re-issued in
-    the parent.  A SUMO failure in the
-    child reaches the parent as the same :class:`~acc_fusion.sumo.SumoError` at the frame
-    where it happened (the frames before it were delivered); a child that dies is a
-    :class:`~acc_fusion.sumo.SumoError` naming its exit code.
+    the parent.  A SUMO failure in the child reaches the parent as the same
+    :class:`~acc_fusion.sumo.SumoError` at the frame where it happened (the frames before it
+    were delivered); a child that dies is a :class:`~acc_fusion.sumo.SumoError` naming its
+    exit code.
 """
 
 from __future__ import annotations
