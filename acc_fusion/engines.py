@@ -106,14 +106,13 @@ class BatchedBank(FilterBank):
 
     def predict(self, f, q, q_scale, mask, b=None, u=None):
         k, n, d = self._x.shape
-        mask = np.ascontiguousarray(np.broadcast_to(mask, (k, n)))
         kalman.predict(
             self._x.reshape(k * n, d),
             self._p.reshape(k * n, d, d),
             np.ascontiguousarray(f, dtype=float),
             np.ascontiguousarray(q, dtype=float),
-            np.ascontiguousarray(np.broadcast_to(q_scale, (k, n)), dtype=float).reshape(-1),
-            mask.reshape(-1),
+            _per_filter(q_scale, (k, n), float),
+            _per_filter(mask, (k, n), bool),
             np.zeros(d) if u is None else np.ascontiguousarray(b, dtype=float),
             _NO_INPUT if u is None else np.ascontiguousarray(u, dtype=float),
         )
@@ -138,6 +137,17 @@ class BatchedBank(FilterBank):
 
 
 _NO_INPUT = np.zeros(1)
+
+
+def _per_filter(a, shape: tuple[int, int], dtype) -> np.ndarray:
+    """``a`` broadcast to ``shape`` (K, N) as a flat contiguous array of ``dtype`` (no copy
+    when it already is one: the kernels' per-filter arguments)."""
+    a = np.asarray(a, dtype=dtype)
+    if a.shape == shape and a.flags.c_contiguous:
+        return a.reshape(-1)
+    out = np.empty(shape, dtype=dtype)
+    out[...] = a
+    return out.reshape(-1)
 
 
 class FilterpyBank(FilterBank):

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from acc_fusion.models import STATE_DIM
+from acc_fusion.models import MEAS_DIM, STATE_DIM
 
 
 @njit(cache=True)
@@ -74,12 +74,13 @@ def _invert(a, out, work, m):  # pragma: no cover - compiled
                         out[r, j] -= fct * out[c, j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _inverse(a, out, work, m):  # pragma: no cover - compiled
     """Inverse of the leading ``m×m`` block of the symmetric matrix ``a`` into ``out``: closed
     form for 1×1, 2×2 and 3×3, else pivoted Gauss-Jordan.  (Covariances, innovation
     covariances and information matrices are symmetric positive definite and well conditioned
-    at these sizes.)  The size is an argument rather than a slice: no array view per call."""
+    at these sizes.)  The size is an argument rather than a slice: no array view per call.
+    Inlined into its callers, so that a size known when compiling selects its branch there."""
     if m == 1:
         out[0, 0] = 1.0 / a[0, 0]
     elif m == 2:
@@ -184,101 +185,133 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
 
     Shapes: ``x (N, n)``, ``p (N, n, n)``, ``z (N, m)``, ``r (N, m, m)``, ``h (m, n)``,
     ``rows (N, m)`` bool (which measurement rows pair ``k`` has), ``nis (N,)`` output.
+    A pair with all the :data:`~acc_fusion.models.MEAS_DIM` rows of a sensor (the usual
+    case) is updated with the row count known when compiling, which unrolls the loops over
+    it (twice as fast); other pairs with their active rows gathered first.
     """
     n_pairs, n = x.shape[0], STATE_DIM
     m_all = h.shape[0]
+    full = m_all == MEAS_DIM
     idx = np.empty(m_all, dtype=np.int64)
-    hs = np.empty((m_all, n))
-    pht = np.empty((n, m_all))
-    s_mat = np.empty((m_all, m_all))
-    si = np.empty((m_all, m_all))
-    work = np.empty((m_all, m_all))
-    kg = np.empty((n, m_all))
+    hs, zs, rs = np.empty((m_all, n)), np.empty(m_all), np.empty((m_all, m_all))
+    pht, kg = np.empty((n, m_all)), np.empty((n, m_all))
+    s_mat, si, work = np.empty((m_all, m_all)), np.empty((m_all, m_all)), np.empty((m_all, m_all))
     y = np.empty(m_all)
     for k in range(n_pairs):
         m = _active_rows(rows, k, idx)
         if m == 0:
             nis[k] = np.nan
-            continue
+        elif full and m == MEAS_DIM:
+            nis[k] = _update_pair(x[k], p[k], h, z[k], r[k], MEAS_DIM, pht, kg, s_mat, si, work, y)
+        else:
+            _gather_rows(h, z[k], r[k], idx, m, hs, zs, rs)
+            nis[k] = _update_pair(x[k], p[k], hs, zs, rs, m, pht, kg, s_mat, si, work, y)
+
+
+@njit(cache=True, inline="always")
+def _gather_rows(h, z, r, idx, m, hs, zs, rs):  # pragma: no cover - compiled
+    """The rows ``idx[:m]`` of a measurement model ``h``, its value ``z`` and covariance
+    ``r`` into the leading blocks of ``hs``, ``zs``, ``rs``."""
+    for a in range(m):
+        zs[a] = z[idx[a]]
+        for j in range(h.shape[1]):
+            hs[a, j] = h[idx[a], j]
+        for b in range(m):
+            rs[a, b] = r[idx[a], idx[b]]
+
+
+@njit(cache=True, inline="always")
+def _update_pair(x, p, h, z, r, m, pht, kg, s_mat, si, work, y):  # pragma: no cover - compiled
+    """:func:`update` of one filter ``x (n,)``, ``p (n, n)`` in place with the first ``m``
+    rows of ``h``, ``z``, ``r``; returns the NIS."""
+    n = STATE_DIM
+    for i in range(n):  # P H^T
         for a in range(m):
-            for j in range(n):
-                hs[a, j] = h[idx[a], j]
-        for i in range(n):  # P H^T
-            for a in range(m):
-                s = 0.0
-                for j in range(n):
-                    s += p[k, i, j] * hs[a, j]
-                pht[i, a] = s
-        for a in range(m):  # S = H P H^T + R
-            for b in range(m):
-                s = 0.0
-                for j in range(n):
-                    s += hs[a, j] * pht[j, b]
-                s_mat[a, b] = s + r[k, idx[a], idx[b]]
-        _inverse(s_mat, si, work, m)
-        for i in range(n):  # K = P H^T S^-1
-            for b in range(m):
-                s = 0.0
-                for a in range(m):
-                    s += pht[i, a] * si[a, b]
-                kg[i, b] = s
-        for a in range(m):  # y = z - H x
             s = 0.0
             for j in range(n):
-                s += hs[a, j] * x[k, j]
-            y[a] = z[k, idx[a]] - s
-        e = 0.0
-        for a in range(m):
-            for b in range(m):
-                e += y[a] * si[a, b] * y[b]
-        nis[k] = e
-        for i in range(n):
+                s += p[i, j] * h[a, j]
+            pht[i, a] = s
+    for a in range(m):  # S = H P H^T + R
+        for b in range(m):
+            s = 0.0
+            for j in range(n):
+                s += h[a, j] * pht[j, b]
+            s_mat[a, b] = s + r[a, b]
+    _inverse(s_mat, si, work, m)
+    for i in range(n):  # K = P H^T S^-1
+        for b in range(m):
             s = 0.0
             for a in range(m):
-                s += kg[i, a] * y[a]
-            x[k, i] += s
-        for i in range(n):  # P - K (H P) = P - K S K^T, upper triangle mirrored
-            for j in range(i, n):
-                t = 0.0
-                for a in range(m):
-                    t += kg[i, a] * pht[j, a]
-                v = p[k, i, j] - t
-                p[k, i, j] = v
-                p[k, j, i] = v
+                s += pht[i, a] * si[a, b]
+            kg[i, b] = s
+    for a in range(m):  # y = z - H x
+        s = 0.0
+        for j in range(n):
+            s += h[a, j] * x[j]
+        y[a] = z[a] - s
+    e = 0.0
+    for a in range(m):
+        for b in range(m):
+            e += y[a] * si[a, b] * y[b]
+    for i in range(n):
+        s = 0.0
+        for a in range(m):
+            s += kg[i, a] * y[a]
+        x[i] += s
+    for i in range(n):  # P - K (H P) = P - K S K^T, upper triangle mirrored
+        for j in range(i, n):
+            t = 0.0
+            for a in range(m):
+                t += kg[i, a] * pht[j, a]
+            v = p[i, j] - t
+            p[i, j] = v
+            p[j, i] = v
+    return e
 
 
 @njit(cache=True)
 def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
-    r"""NIS :math:`y^\top (H P H^\top + R)^{-1} y` of each pair's active rows, without updating."""
+    r"""NIS :math:`y^\top (H P H^\top + R)^{-1} y` of each pair's active rows, without
+    updating (all :data:`~acc_fusion.models.MEAS_DIM` rows: unrolled, as :func:`update`)."""
     n_pairs, n = x.shape[0], STATE_DIM
     m_all = h.shape[0]
+    full = m_all == MEAS_DIM
     idx = np.empty(m_all, dtype=np.int64)
-    s_mat = np.empty((m_all, m_all))
-    si = np.empty((m_all, m_all))
-    work = np.empty((m_all, m_all))
+    hs, zs, rs = np.empty((m_all, n)), np.empty(m_all), np.empty((m_all, m_all))
+    s_mat, si, work = np.empty((m_all, m_all)), np.empty((m_all, m_all)), np.empty((m_all, m_all))
     y = np.empty(m_all)
     for k in range(n_pairs):
         m = _active_rows(rows, k, idx)
         if m == 0:
             nis[k] = np.nan
-            continue
-        for a in range(m):
+        elif full and m == MEAS_DIM:
+            nis[k] = _nis_pair(x[k], p[k], h, z[k], r[k], MEAS_DIM, s_mat, si, work, y)
+        else:
+            _gather_rows(h, z[k], r[k], idx, m, hs, zs, rs)
+            nis[k] = _nis_pair(x[k], p[k], hs, zs, rs, m, s_mat, si, work, y)
+
+
+@njit(cache=True, inline="always")
+def _nis_pair(x, p, h, z, r, m, s_mat, si, work, y):  # pragma: no cover - compiled
+    """:func:`innovation_nis` of one filter with the first ``m`` rows of ``h``, ``z``, ``r``."""
+    n = STATE_DIM
+    for a in range(m):
+        s = 0.0
+        for j in range(n):
+            s += h[a, j] * x[j]
+        y[a] = z[a] - s
+        for b in range(m):
             s = 0.0
-            for j in range(n):
-                s += h[idx[a], j] * x[k, j]
-            y[a] = z[k, idx[a]] - s
-            for b in range(m):
-                s = 0.0
-                for i in range(n):
-                    for j in range(n):
-                        s += h[idx[a], i] * p[k, i, j] * h[idx[b], j]
-                s_mat[a, b] = s + r[k, idx[a], idx[b]]
-        _inverse(s_mat, si, work, m)
-        e = 0.0
-        for a in range(m):
-            for b in range(m):
-                e += y[a] * si[a, b] * y[b]
-        nis[k] = e
+            for i in range(n):
+                for j in range(n):
+                    s += h[a, i] * p[i, j] * h[b, j]
+            s_mat[a, b] = s + r[a, b]
+    _inverse(s_mat, si, work, m)
+    e = 0.0
+    for a in range(m):
+        for b in range(m):
+            e += y[a] * si[a, b] * y[b]
+    return e
 
 
 @njit(cache=True)
