@@ -97,15 +97,18 @@ class WindowedChiSquare(PairState):
 
     def reset(self, pairs: np.ndarray) -> None:
         """Forget windows and isolation of the pairs in the boolean mask ``pairs``."""
-        self._clear(pairs)
-        self.isolated[pairs] = False
-        self._verdict[pairs] = 0
+        _reset(np.ascontiguousarray(pairs, dtype=bool), *self.arrays()[:6])
 
-    def _clear(self, mask: np.ndarray) -> None:
-        self._buf[mask] = 0.0
-        self._sum[mask] = 0.0
-        self._count[mask] = 0
-        self._pos[mask] = 0
+    def tests(self) -> tuple[float, float, float, int]:
+        """The gate, the clip value, the window threshold and the common-cause steps."""
+        return self.gate, self.clip, self.threshold, int(self.config.common_steps)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The state arrays, in the order of :func:`window_one`'s arguments after the
+        thresholds: window ring, its sum, count and position, isolation, verdict, age."""
+        return (
+            self._buf, self._sum, self._count, self._pos, self.isolated, self._verdict, self._age
+        )  # fmt: skip
 
     def step(self, nis: np.ndarray, reported: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Test one step of NIS values ``(N, S)`` where ``reported (N, S)``.
@@ -118,71 +121,87 @@ class WindowedChiSquare(PairState):
         rejoined = np.empty_like(self.isolated)
         _window_step(
             np.ascontiguousarray(nis, dtype=float), np.ascontiguousarray(reported, dtype=bool),
-            self.gate, self.clip, self.threshold, int(self.config.common_steps), self._buf,
-            self._sum, self._count, self._pos, self.isolated, self._verdict, self._age,
-            accepted, rejoined,
+            *self.tests(), *self.arrays(), accepted, rejoined,
         )  # fmt: skip
         return accepted, rejoined
 
 
 @njit(cache=True)
 def _window_step(
-    nis,
-    reported,
-    gate,
-    clip,
-    threshold,
-    common_steps,
-    buf,
-    total,
-    count,
-    pos,
-    isolated,
-    verdict,
-    age,
-    accepted,
-    rejoined,
-):  # pragma: no cover - compiled
-    """:meth:`WindowedChiSquare.step` for every pair, in place (rules in the module docstring).
+    nis, reported, gate, clip, threshold, common_steps, buf, total, count, pos, isolated,
+    verdict, age, accepted, rejoined,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:meth:`WindowedChiSquare.step` for every pair, in place (rules in the module docstring)."""
+    for i in range(buf.shape[0]):
+        window_one(
+            i, nis, reported, gate, clip, threshold, common_steps, buf, total, count, pos,
+            isolated, verdict, age, accepted, rejoined,
+        )  # fmt: skip
 
-    Per pair and sensor: the gate verdict (1 pass, 2 fail) and its age; the common-cause test
-    over the pair's sensors; the clipped NIS into the window ring; the window test.
-    """
-    n_pairs, n_sensors, w = buf.shape
-    for i in range(n_pairs):
-        n_recent = 0
-        any_pass = False
-        for s in range(n_sensors):
-            if reported[i, s]:
-                verdict[i, s] = 1 if nis[i, s] <= gate else 2
-                age[i, s] = 0
-            else:
-                age[i, s] += 1
-            if not isolated[i, s] and verdict[i, s] > 0 and age[i, s] <= common_steps:
-                n_recent += 1
-                any_pass = any_pass or verdict[i, s] == 1
-        common = n_recent >= 2 and not any_pass
-        for s in range(n_sensors):
-            rep = reported[i, s]
-            accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or common)
-            rejoined[i, s] = False
-            if rep and not common:
-                k = pos[i, s]
-                old = buf[i, s, k]
-                value = clip if nis[i, s] > clip else nis[i, s]
-                buf[i, s, k] = value
-                total[i, s] += value - old
-                pos[i, s] = (k + 1) % w
-                count[i, s] = min(count[i, s] + 1, w)
-            if count[i, s] == w:
-                fail = total[i, s] > threshold
-                if fail != isolated[i, s]:  # newly isolated, or rejoining
-                    if fail:
-                        accepted[i, s] = False
-                    else:
-                        rejoined[i, s] = True
-                    isolated[i, s] = fail
-                    buf[i, s, :] = 0.0
-                    total[i, s] = 0.0
-                    count[i, s] = 0
-                    pos[i, s] = 0
+
+@njit(cache=True, inline="always")
+def window_one(
+    i, nis, reported, gate, clip, threshold, common_steps, buf, total, count, pos, isolated,
+    verdict, age, accepted, rejoined,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_window_step` of pair ``i``: per sensor, the gate verdict (1 pass, 2 fail) and
+    its age; the common-cause test over the pair's sensors; the clipped NIS into the window
+    ring; the window test."""
+    n_sensors, w = buf.shape[1], buf.shape[2]
+    n_recent = 0
+    any_pass = False
+    for s in range(n_sensors):
+        if reported[i, s]:
+            verdict[i, s] = 1 if nis[i, s] <= gate else 2
+            age[i, s] = 0
+        else:
+            age[i, s] += 1
+        if not isolated[i, s] and verdict[i, s] > 0 and age[i, s] <= common_steps:
+            n_recent += 1
+            any_pass = any_pass or verdict[i, s] == 1
+    common = n_recent >= 2 and not any_pass
+    for s in range(n_sensors):
+        rep = reported[i, s]
+        accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or common)
+        rejoined[i, s] = False
+        if rep and not common:
+            k = pos[i, s]
+            old = buf[i, s, k]
+            value = clip if nis[i, s] > clip else nis[i, s]
+            buf[i, s, k] = value
+            total[i, s] += value - old
+            pos[i, s] = (k + 1) % w
+            count[i, s] = min(count[i, s] + 1, w)
+        if count[i, s] == w:
+            fail = total[i, s] > threshold
+            if fail != isolated[i, s]:  # newly isolated, or rejoining
+                if fail:
+                    accepted[i, s] = False
+                else:
+                    rejoined[i, s] = True
+                isolated[i, s] = fail
+                buf[i, s, :] = 0.0
+                total[i, s] = 0.0
+                count[i, s] = 0
+                pos[i, s] = 0
+
+
+@njit(cache=True)
+def _reset(mask, buf, total, count, pos, isolated, verdict):  # pragma: no cover - compiled
+    """:meth:`WindowedChiSquare.reset` of the pairs in ``mask``."""
+    for i in range(mask.size):
+        if mask[i]:
+            reset_one(i, buf, total, count, pos, isolated, verdict)
+
+
+@njit(cache=True, inline="always")
+def reset_one(i, buf, total, count, pos, isolated, verdict):  # pragma: no cover - compiled
+    """Forget the windows and the isolation of pair ``i``."""
+    for s in range(buf.shape[1]):
+        for k in range(buf.shape[2]):
+            buf[i, s, k] = 0.0
+        total[i, s] = 0.0
+        count[i, s] = 0
+        pos[i, s] = 0
+        isolated[i, s] = False
+        verdict[i, s] = 0

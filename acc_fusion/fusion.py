@@ -58,8 +58,10 @@ from numba import njit
 
 from acc_fusion.engines import ENGINES, Engine
 from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.fdi import FDIConfig, WindowedChiSquare
+from acc_fusion.fdi import FDIConfig, WindowedChiSquare, reset_one, window_one
+from acc_fusion.kalman import assign_one, fuse_one, nis_one, predict_one, update_one
 from acc_fusion.models import (
+    MEAS_DIM,
     MEASUREMENT_MATRIX,
     STATE_DIM,
     ca_process_noise,
@@ -494,12 +496,14 @@ class FederatedFilter(Estimator):
                 part.resize(m)
 
     def _drop(self, pairs):
-        self.beta[:, pairs] = self._beta0[:, None]
+        _drop_pairs(np.asarray(pairs, dtype=bool), *self._track_arrays())
         self._infl = None
-        self._seen[:, pairs] = False
-        self._needed[:, pairs] = False
-        if self.fdi is not None:
-            self.fdi.reset(pairs)
+
+    def _track_arrays(self) -> tuple:
+        """The arrays :func:`_drop_one` resets: sharing factors (and their initial values),
+        confirmation flags and the fault detector's windows (empty without one)."""
+        fdi = self.fdi.arrays()[:6] if self.fdi is not None else _NO_FDI[:6]
+        return (self.beta, self._beta0, self._seen, self._needed, self.fdi is not None, *fdi)
 
     def forget(self, pairs):
         super().forget(pairs)
@@ -554,17 +558,19 @@ class FederatedFilter(Estimator):
         return self._infl
 
     def _share(self, active: np.ndarray) -> None:
-        """Recompute :math:`\\beta` over the active locals of every pair (sum 1 per pair)."""
-        if self.config.beta == "trace":
-            tr = np.trace(self.locals.p, axis1=2, axis2=3) * np.where(self.beta > 0, self.beta, 1.0)
-            w = np.where(active, 1.0 / tr, 0.0)
-        else:
-            w = np.where(active, self._beta0[:, None], 0.0)
-        total = w.sum(axis=0)
-        np.divide(w, total, out=self.beta, where=total > 0)
+        """Recompute :math:`\\beta` over the active locals of every pair (:func:`_share_one`)."""
+        _share_pairs(
+            np.ascontiguousarray(active), self.locals.p, self.beta, self._beta0,
+            self.config.beta == "trace",
+        )  # fmt: skip
         self._infl = None
 
     def _advance(self, z, r, valid):
+        """One step of the federated filter on the engine's banks, operation by operation
+        over all pairs: the reference (the filterpy engine runs it); the batched engine runs
+        the same step pair by pair in one kernel (:meth:`_advance_batched`)."""
+        if self.engine.name == "batched":
+            return self._advance_batched(z, r, valid)
         s_all = range(self.n_sensors)
         ini = self.initialised
         self.master.predict(self.f, self.q, 1.0, ini[None], self.b, self._u)
@@ -626,6 +632,28 @@ class FederatedFilter(Estimator):
             self.initialised &= ~lost
             self._drop(lost)
         return (accepted | consumed).any(axis=0)
+
+    def _advance_batched(self, z, r, valid):
+        """:meth:`_advance` as one call of :func:`_federated_step` (the same arithmetic, in
+        the same order, pair by pair: equal to it bit for bit)."""
+        used = np.empty(self.n_pairs, dtype=bool)
+        u = None if self._u is None else np.ascontiguousarray(self._u, dtype=float)
+        fdi = self.fdi
+        fc = self.config.filter
+        _federated_step(
+            self.master.x[0], self.master.p[0], self.locals.x, self.locals.p, self.f, self.q,
+            self.b if u is not None else np.zeros(STATE_DIM), u if u is not None else _NO_U,
+            self.h, z, r, valid, self.initialised, self._reported_at, *self._track_arrays(),
+            *(fdi.tests() if fdi is not None else _NO_TESTS),
+            fdi.arrays()[6] if fdi is not None else _NO_FDI[6],
+            self._inflate, self._feedback, self._increments, self.config.beta == "trace",
+            self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
+            fc.max_coast + 1e-9, self._nis, used,
+        )  # fmt: skip
+        self._infl = None
+        self._online_at[self._online] = self._t
+        self._k += 1
+        return used
 
 
 class SteadyStateFilter(Estimator):
@@ -723,6 +751,192 @@ def _gather(z_in, r_in, valid, z, r):  # pragma: no cover - compiled
             low[s] = min(low[s], z[s, k, 0])
             positive[s] &= r[s, k, 0, 0] > 0 and r[s, k, 1, 1] > 0
     return finite, low, positive
+
+
+#: Stand-ins for a federated filter without fault detection: its (empty) window arrays and
+#: thresholds, and the known input of a step without one.
+_NO_FDI = (
+    np.zeros((0, 0, 0)), np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64),
+    np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=bool),
+    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=np.int64),
+)  # fmt: skip
+_NO_TESTS = (0.0, 0.0, 0.0, 0)
+_NO_U = np.zeros(1)
+
+
+@njit(cache=True)
+def _federated_step(
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
+    needed, has_fdi, buf, total, count, pos, isolated, verdict, gate, clip, threshold,
+    common_steps, age, inflate, feedback, increments, trace, fuse_now, accel_var, t,
+    coast_limit, nis, used,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:meth:`FederatedFilter._advance` of every pair, in place, pair by pair.
+
+    Master ``xm (N, n)``, ``pm (N, n, n)`` and locals ``xl (S, N, n)``, ``pl (S, N, n, n)``;
+    measurements ``z (S, N, m)``, ``r (S, N, m, m)``, ``valid (S, N)``; track state
+    ``initialised (N,)``, ``reported_at``, ``beta``, ``seen``, ``needed (S, N)``; the fault
+    detector's windows (``has_fdi``; arrays of :class:`~acc_fusion.fdi.WindowedChiSquare`).
+    Writes the NIS against the master's prior ``nis (N, S)`` and the pairs that used a
+    measurement ``used (N,)``.  The first pass runs each pair's predict, initialisation,
+    fault tests, local updates and fusion with feedback; the second, once the whole step's
+    rejoining sensors are known, the re-sharing they cause (of every pair, as the reference
+    does), the bookkeeping and the loss of tracks whose every sensor is isolated or silent.
+    """
+    n_s, n_pairs = valid.shape
+    n, m = STATE_DIM, MEAS_DIM
+    xt, fp, x0, p0 = np.empty(n), np.empty((n, n)), np.empty(n), np.empty((n, n))
+    pht, kg, y = np.empty((n, m)), np.empty((n, m)), np.empty(m)
+    s_mat, si, work_m = np.empty((m, m)), np.empty((m, m)), np.empty((m, m))
+    info, vec, yi, ym, work = (
+        np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    )  # fmt: skip
+    xf, pf, w = np.empty(n), np.empty((n, n)), np.empty(n_s)
+    reporting = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    consumed = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    accepted = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    rejoined = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    active = np.zeros((n_s, n_pairs), dtype=np.bool_)
+    any_rejoined = False
+    for k in range(n_pairs):
+        uk = u[k % u.size]
+        if initialised[k]:
+            predict_one(xm[k], pm[k], f, q, 1.0, b, uk, xt, fp)
+            for s in range(n_s):
+                scale = _inflation_one(beta[s, k], inflate)
+                predict_one(xl[s, k], pl[s, k], f, q, scale, b, uk, xt, fp)
+        else:  # a new track from the first reporting sensor
+            first = -1
+            for s in range(n_s):
+                if valid[s, k]:
+                    first = s
+                    break
+            if first >= 0:
+                _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos,
+                          isolated, verdict)  # fmt: skip
+                p0[:] = 0.0
+                for i in range(m):
+                    x0[i] = z[first, k, i]
+                    for j in range(m):
+                        p0[i, j] = r[first, k, i, j]
+                x0[n - 1] = 0.0
+                p0[n - 1, n - 1] = accel_var
+                assign_one(xm[k], pm[k], x0, p0, 1.0)
+                for s in range(n_s):
+                    assign_one(xl[s, k], pl[s, k], x0, p0, _inflation_one(beta[s, k], inflate))
+                initialised[k] = True
+                consumed[k, first] = True
+        ini = initialised[k]
+        for s in range(n_s):
+            reporting[k, s] = ini and valid[s, k] and not consumed[k, s]
+            if reporting[k, s]:
+                nis[k, s] = nis_one(xm[k], pm[k], h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
+            else:
+                nis[k, s] = np.nan
+        if has_fdi:
+            window_one(k, nis, reporting, gate, clip, threshold, common_steps, buf, total,
+                       count, pos, isolated, verdict, age, accepted, rejoined)  # fmt: skip
+        else:
+            accepted[k] = reporting[k]
+        for s in range(n_s):
+            if accepted[k, s]:
+                update_one(xl[s, k], pl[s, k], h, z[s, k], r[s, k], m, pht, kg, s_mat, si,
+                           work_m, y)  # fmt: skip
+            active[s, k] = ini and not (has_fdi and isolated[k, s])
+            any_rejoined = any_rejoined or rejoined[k, s]
+        if fuse_now and ini:
+            fuse_one(xl, pl, active, k, xm[k], pm[k], increments, xf, pf, info, vec, yi, ym,
+                     work)  # fmt: skip
+            assign_one(xm[k], pm[k], xf, pf, 1.0)
+            if feedback:
+                _share_one(k, active, pl, beta, beta0, trace, w)
+                for s in range(n_s):
+                    if active[s, k]:
+                        assign_one(xl[s, k], pl[s, k], xf, pf, _inflation_one(beta[s, k], inflate))
+    for k in range(n_pairs):
+        ini = initialised[k]
+        if any_rejoined:
+            _share_one(k, active, pl, beta, beta0, trace, w)
+            for s in range(n_s):
+                if rejoined[k, s] and ini:
+                    assign_one(
+                        xl[s, k], pl[s, k], xm[k], pm[k], _inflation_one(beta[s, k], inflate)
+                    )
+        any_isolated, all_out, took_any = False, True, False
+        for s in range(n_s):
+            took = accepted[k, s] or consumed[k, s]
+            seen[s, k] = seen[s, k] or took
+            took_any = took_any or took
+            if reporting[k, s] or consumed[k, s]:
+                reported_at[s, k] = t
+            iso = has_fdi and isolated[k, s]
+            any_isolated = any_isolated or iso
+            all_out = all_out and (iso or t - reported_at[s, k] > coast_limit)
+        used[k] = took_any
+        if ini and any_isolated and all_out:  # every recently reporting sensor is isolated
+            initialised[k] = False
+            _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
+                      verdict)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _inflation_one(beta, inflate):  # pragma: no cover - compiled
+    """The factor :math:`1/\\beta_i` of a local's prior and process noise (1 without
+    inflation or with :math:`\\beta_i = 0`)."""
+    return 1.0 / beta if inflate and beta > 0 else 1.0
+
+
+@njit(cache=True, inline="always")
+def _share_one(k, active, pl, beta, beta0, trace, w):  # pragma: no cover - compiled
+    """Recompute pair ``k``'s :math:`\\beta` over its active locals (sum 1; unchanged
+    without one): :math:`\\beta_i \\propto 1/\\mathrm{tr}(\\beta_i P_i)` (``trace``) or the
+    initial factors ``beta0`` (``w (S,)``: scratch)."""
+    total = 0.0
+    for s in range(beta.shape[0]):
+        if not active[s, k]:
+            w[s] = 0.0
+        elif trace:
+            b = beta[s, k] if beta[s, k] > 0 else 1.0
+            w[s] = 1.0 / ((pl[s, k, 0, 0] + pl[s, k, 1, 1] + pl[s, k, 2, 2]) * b)
+        else:
+            w[s] = beta0[s]
+        total += w[s]
+    if total > 0:
+        for s in range(beta.shape[0]):
+            beta[s, k] = w[s] / total
+
+
+@njit(cache=True)
+def _share_pairs(active, pl, beta, beta0, trace):  # pragma: no cover - compiled
+    """:func:`_share_one` of every pair."""
+    w = np.empty(beta.shape[0])
+    for k in range(beta.shape[1]):
+        _share_one(k, active, pl, beta, beta0, trace, w)
+
+
+@njit(cache=True, inline="always")
+def _drop_one(
+    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict
+):  # pragma: no cover - compiled
+    """Forget pair ``k``'s track state: initial sharing factors, no sensor seen or needed,
+    fresh fault-detection windows."""
+    for s in range(beta.shape[0]):
+        beta[s, k] = beta0[s]
+        seen[s, k] = False
+        needed[s, k] = False
+    if has_fdi:
+        reset_one(k, buf, total, count, pos, isolated, verdict)
+
+
+@njit(cache=True)
+def _drop_pairs(
+    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict
+):  # pragma: no cover - compiled
+    """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
+    for k in range(pairs.size):
+        if pairs[k]:
+            _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
+                      verdict)  # fmt: skip
 
 
 def make_estimator(

@@ -134,45 +134,55 @@ def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
     ``b (n,)``; the known input ``u (M,)`` with N a multiple of M: row k uses ``u[k % M]``
     (K banks of M pairs share the pairs' inputs).
     """
-    n_pairs, n = x.shape[0], STATE_DIM
-    xt = np.empty(n)
-    fp = np.empty((n, n))
-    for k in range(n_pairs):
-        if not mask[k]:
-            continue
-        uk = u[k % u.size]
-        for i in range(n):
+    n = STATE_DIM
+    xt, fp = np.empty(n), np.empty((n, n))
+    for k in range(x.shape[0]):
+        if mask[k]:
+            predict_one(x[k], p[k], f, q, q_scale[k], b, u[k % u.size], xt, fp)
+
+
+@njit(cache=True, inline="always")
+def predict_one(x, p, f, q, scale, b, u, xt, fp):  # pragma: no cover - compiled
+    """:func:`predict` of one filter ``x (n,)``, ``p (n, n)`` with process-noise scale
+    ``scale`` and input ``u`` (``xt (n,)``, ``fp (n, n)``: scratch)."""
+    n = STATE_DIM
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += f[i, j] * x[j]
+        xt[i] = s + b[i] * u
+    for i in range(n):
+        x[i] = xt[i]
+        for j in range(n):
             s = 0.0
-            for j in range(n):
-                s += f[i, j] * x[k, j]
-            xt[i] = s + b[i] * uk
-        for i in range(n):
-            x[k, i] = xt[i]
-            for j in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += f[i, m] * p[k, m, j]
-                fp[i, j] = s
-        for i in range(n):
-            for j in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += fp[i, m] * f[j, m]
-                p[k, i, j] = s + q_scale[k] * q[i, j]
+            for m in range(n):
+                s += f[i, m] * p[m, j]
+            fp[i, j] = s
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for m in range(n):
+                s += fp[i, m] * f[j, m]
+            p[i, j] = s + scale * q[i, j]
 
 
 @njit(cache=True)
 def assign(x, p, mask, x_new, p_new, p_scale):  # pragma: no cover - compiled
     r"""Set the filters in ``mask (N,)`` in place: :math:`x = x_{new}`, :math:`P = s\,P_{new}`
     with the per-pair scale ``p_scale (N,)``."""
-    n_pairs, n = x.shape[0], STATE_DIM
-    for k in range(n_pairs):
-        if not mask[k]:
-            continue
-        for i in range(n):
-            x[k, i] = x_new[k, i]
-            for j in range(n):
-                p[k, i, j] = p_new[k, i, j] * p_scale[k]
+    for k in range(x.shape[0]):
+        if mask[k]:
+            assign_one(x[k], p[k], x_new[k], p_new[k], p_scale[k])
+
+
+@njit(cache=True, inline="always")
+def assign_one(x, p, x_new, p_new, scale):  # pragma: no cover - compiled
+    """:func:`assign` of one filter: ``x = x_new``, ``p = scale * p_new``."""
+    n = STATE_DIM
+    for i in range(n):
+        x[i] = x_new[i]
+        for j in range(n):
+            p[i, j] = p_new[i, j] * scale
 
 
 @njit(cache=True)
@@ -202,10 +212,10 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
         if m == 0:
             nis[k] = np.nan
         elif full and m == MEAS_DIM:
-            nis[k] = _update_pair(x[k], p[k], h, z[k], r[k], MEAS_DIM, pht, kg, s_mat, si, work, y)
+            nis[k] = update_one(x[k], p[k], h, z[k], r[k], MEAS_DIM, pht, kg, s_mat, si, work, y)
         else:
             _gather_rows(h, z[k], r[k], idx, m, hs, zs, rs)
-            nis[k] = _update_pair(x[k], p[k], hs, zs, rs, m, pht, kg, s_mat, si, work, y)
+            nis[k] = update_one(x[k], p[k], hs, zs, rs, m, pht, kg, s_mat, si, work, y)
 
 
 @njit(cache=True, inline="always")
@@ -221,7 +231,7 @@ def _gather_rows(h, z, r, idx, m, hs, zs, rs):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _update_pair(x, p, h, z, r, m, pht, kg, s_mat, si, work, y):  # pragma: no cover - compiled
+def update_one(x, p, h, z, r, m, pht, kg, s_mat, si, work, y):  # pragma: no cover - compiled
     """:func:`update` of one filter ``x (n,)``, ``p (n, n)`` in place with the first ``m``
     rows of ``h``, ``z``, ``r``; returns the NIS."""
     n = STATE_DIM
@@ -285,14 +295,14 @@ def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
         if m == 0:
             nis[k] = np.nan
         elif full and m == MEAS_DIM:
-            nis[k] = _nis_pair(x[k], p[k], h, z[k], r[k], MEAS_DIM, s_mat, si, work, y)
+            nis[k] = nis_one(x[k], p[k], h, z[k], r[k], MEAS_DIM, s_mat, si, work, y)
         else:
             _gather_rows(h, z[k], r[k], idx, m, hs, zs, rs)
-            nis[k] = _nis_pair(x[k], p[k], hs, zs, rs, m, s_mat, si, work, y)
+            nis[k] = nis_one(x[k], p[k], hs, zs, rs, m, s_mat, si, work, y)
 
 
 @njit(cache=True, inline="always")
-def _nis_pair(x, p, h, z, r, m, s_mat, si, work, y):  # pragma: no cover - compiled
+def nis_one(x, p, h, z, r, m, s_mat, si, work, y):  # pragma: no cover - compiled
     """:func:`innovation_nis` of one filter with the first ``m`` rows of ``h``, ``z``, ``r``."""
     n = STATE_DIM
     for a in range(m):
@@ -325,49 +335,57 @@ def fuse(xs, ps, active, x_prior, p_prior, increments, x_out, p_out):  # pragma:
     last fusion: :math:`Y = Y_m + \sum_i (P_i^{-1} - Y_m)`, with :math:`Y_m = (P_m^-)^{-1}`.
     A pair with no active local keeps the prior.  Results go to ``x_out``, ``p_out``.
     """
-    n_s, n_pairs, n = xs.shape[0], xs.shape[1], STATE_DIM
-    info = np.empty((n, n))
-    vec = np.empty(n)
-    yi = np.empty((n, n))
-    ym = np.empty((n, n))
-    work = np.empty((n, n))
-    for k in range(n_pairs):
-        count = 0
-        for si_ in range(n_s):
-            if active[si_, k]:
-                count += 1
-        if count == 0:
-            for i in range(n):
-                x_out[k, i] = x_prior[k, i]
-                for j in range(n):
-                    p_out[k, i, j] = p_prior[k, i, j]
+    n = STATE_DIM
+    info, vec = np.empty((n, n)), np.empty(n)
+    yi, ym, work = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    for k in range(xs.shape[1]):
+        fuse_one(xs, ps, active, k, x_prior[k], p_prior[k], increments, x_out[k], p_out[k],
+                 info, vec, yi, ym, work)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def fuse_one(
+    xs, ps, active, k, x_prior, p_prior, increments, x_out, p_out, info, vec, yi, ym, work
+):  # pragma: no cover - compiled
+    """:func:`fuse` of pair ``k`` into ``x_out (n,)``, ``p_out (n, n)`` (``info``, ``vec``,
+    ``yi``, ``ym``, ``work``: scratch)."""
+    n_s, n = xs.shape[0], STATE_DIM
+    count = 0
+    for si_ in range(n_s):
+        if active[si_, k]:
+            count += 1
+    if count == 0:
+        for i in range(n):
+            x_out[i] = x_prior[i]
+            for j in range(n):
+                p_out[i, j] = p_prior[i, j]
+        return
+    for i in range(n):
+        vec[i] = 0.0
+        for j in range(n):
+            info[i, j] = 0.0
+    if increments:
+        _inverse(p_prior, ym, work, n)
+        w = 1.0 - count
+        for i in range(n):
+            for j in range(n):
+                info[i, j] += w * ym[i, j]
+                vec[i] += w * ym[i, j] * x_prior[j]
+    for si_ in range(n_s):
+        if not active[si_, k]:
             continue
+        _inverse(ps[si_, k], yi, work, n)
         for i in range(n):
-            vec[i] = 0.0
             for j in range(n):
-                info[i, j] = 0.0
-        if increments:
-            _inverse(p_prior[k], ym, work, n)
-            w = 1.0 - count
-            for i in range(n):
-                for j in range(n):
-                    info[i, j] += w * ym[i, j]
-                    vec[i] += w * ym[i, j] * x_prior[k, j]
-        for si_ in range(n_s):
-            if not active[si_, k]:
-                continue
-            _inverse(ps[si_, k], yi, work, n)
-            for i in range(n):
-                for j in range(n):
-                    info[i, j] += yi[i, j]
-                    vec[i] += yi[i, j] * xs[si_, k, j]
-        _inverse(info, yi, work, n)
-        for i in range(n):
-            s = 0.0
-            for j in range(n):
-                s += yi[i, j] * vec[j]
-                p_out[k, i, j] = 0.5 * (yi[i, j] + yi[j, i])
-            x_out[k, i] = s
+                info[i, j] += yi[i, j]
+                vec[i] += yi[i, j] * xs[si_, k, j]
+    _inverse(info, yi, work, n)
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += yi[i, j] * vec[j]
+            p_out[i, j] = 0.5 * (yi[i, j] + yi[j, i])
+        x_out[i] = s
 
 
 def warmup() -> None:
