@@ -525,8 +525,10 @@ class SumoSource(SlotSource):
         n = self.n_pairs = int(cfg.capacity)
         ss = np.random.SeedSequence(int(cfg.seed)).spawn(3)
         self._rng_equip, self._rng_inatt, self._rng_hazard = (np.random.default_rng(s) for s in ss)
-        # Per vehicle in the network: (integer id, equipped, inattentive).
+        # Per vehicle in the network: (integer id, equipped, inattentive), and the code of its
+        # integer id and slot (_set_code).
         self._info: dict[str, tuple[int, bool, bool]] = {}
+        self._code: dict[str, int] = {}
         self._teleporting: set[str] = set()
         self._next_int = 0
         self._slot_of: dict[str, int] = {}
@@ -810,6 +812,7 @@ class SumoSource(SlotSource):
             if vid in self._info:
                 _, equipped, inatt = self._info[vid]
                 self._info[vid] = (self._new_int(), equipped, inatt)
+                self._set_code(vid)
                 if equipped:
                     self._waiting[vid] = None
         self._assign()
@@ -820,6 +823,11 @@ class SumoSource(SlotSource):
         self._read()
         if not self._bounded:
             self._sumo_done = self._k > 0 and sim.getMinExpectedNumber() <= 0
+
+    def _set_code(self, vid: str, slot: int = -1) -> None:
+        """Record the code of ``vid``'s integer id and slot (``-1``: none), ``id * (N + 1) +
+        slot + 1``: :meth:`_fill` finds both for every leader with one dict lookup."""
+        self._code[vid] = self._info[vid][0] * (self.n_pairs + 1) + slot + 1
 
     def _new_int(self) -> int:
         self._next_int += 1
@@ -834,6 +842,7 @@ class SumoSource(SlotSource):
         equipped = bool(self._rng_equip.random() < cfg.penetration)
         inatt = bool(self._rng_inatt.random() < cfg.inattentive) and equipped
         self._info[vid] = (self._new_int(), equipped, inatt)
+        self._set_code(vid)
         self.n_departed += 1
         if self._subscribed:
             if equipped:
@@ -857,6 +866,7 @@ class SumoSource(SlotSource):
         self._waiting.pop(vid, None)
         if arrived:  # gone: nothing to restore
             self._info.pop(vid, None)
+            self._code.pop(vid, None)
             self._teleporting.discard(vid)
             self._ctrl.pop(vid, None)
             self._hazards.pop(vid, None)
@@ -870,6 +880,8 @@ class SumoSource(SlotSource):
             self._ssm_min[vid] = min(self._ssm_min.get(vid, math.inf), float(self._ssm_slot[slot]))
         self._slot_vid[slot] = None
         self._slot_of.pop(vid, None)
+        if vid in self._info:
+            self._set_code(vid)
         freed.append(slot)
         self._dirty = True
 
@@ -884,6 +896,7 @@ class SumoSource(SlotSource):
             slot = heapq.heappop(self._free)
             self._slot_vid[slot] = vid
             self._slot_of[vid] = slot
+            self._set_code(vid, slot)
             self._reassigned[slot] = True
             self._collided[slot] = False
             self._collision_speed[slot] = np.nan
@@ -954,23 +967,21 @@ class SumoSource(SlotSource):
             speed = np.fromiter(map(self._get_speed, vids), float, m)
             accel = self._new_accel
             leaders = list(map(self._get_leader, vids, repeat(self.config.lookahead)))
-        names, dists = zip(*leaders, strict=True) if m else ((), ())
-        info = map(self._info.get, names, repeat(_NO_INFO))
-        ego_v, ego_a, gap, lead_v, lead_a, leader, other = _frame_arrays(
+        block, leader, other = _frame_arrays(
             self.n_pairs,
             slots,
             speed,
             accel,
             self._prev_speed,
             self.dt,
-            np.fromiter(dists, float, m),
-            np.fromiter(map(itemgetter(0), info), np.int64, m),
-            np.fromiter(map(self._slot_of.get, names, repeat(-1)), np.intp, m),
+            np.fromiter(map(itemgetter(1), leaders), float, m),
+            np.fromiter(map(self._code.get, map(itemgetter(0), leaders), repeat(-1)), np.int64, m),
             self._min_gap,
             float(self.config.lookahead),
         )
+        ego_v, ego_a, gap, lead_v, lead_a, lateral = block
         if other.size:  # leaders without a slot: their own getters
-            others, at = [names[i] for i in other], slots[other]
+            others, at = [leaders[i][0] for i in other], slots[other]
             if self._subscribed:
                 lead_v[at] = [res[x][sp] for x in others]
                 lead_a[at] = [res[x][ac] for x in others]
@@ -985,28 +996,35 @@ class SumoSource(SlotSource):
         if self._new_slots:  # read once, when the vehicle took its slot
             self._new_accel[self._new_slots] = np.nan
             self._new_slots.clear()
-        return TruthFrame.from_arrays(self._t, ego_v, ego_a, gap, lead_v, lead_a, leader)
+        self._block = block
+        return TruthFrame.from_arrays(
+            self._t, ego_v, ego_a, gap, lead_v, lead_a, leader, lateral_offset=lateral
+        )
 
 
 @njit(cache=True)
 def _frame_arrays(
-    n, slots, speed, accel, prev_speed, dt, dists, leader_int, leader_slot, min_gap, lookahead
+    n, slots, speed, accel, prev_speed, dt, dists, codes, min_gap, lookahead
 ):  # pragma: no cover - compiled
     r"""The ``(N,)`` arrays of a frame from the values read for the vehicles in ``slots``.
 
     Per vehicle ``i`` in slot ``s = slots[i]``: its ``speed[i]``; its acceleration
     ``accel[s]`` where SUMO's was read (NaN elsewhere), else
     :math:`(v_k - v_{k-1})/\Delta t` from ``prev_speed[s]`` (SUMO's ``getAcceleration``
-    exactly); its leader ``leader_int[i]`` (``-1``: none) at the bumper-to-bumper gap
-    ``dists[i] + min_gap[s]`` (``getLeader``'s distance plus the follower's ``minGap``),
-    kept up to ``lookahead``, whose speed and acceleration are those of its slot
-    ``leader_slot[i]``.  Empty slots: speed and acceleration 0, the rest NaN and leader
-    ``-1``.  Returns ``ego_speed, ego_accel, gap, lead_speed, lead_accel, leader_id`` and
-    the positions ``i`` whose kept leader has no slot (an unequipped vehicle, whose speed
-    and acceleration the caller reads).
+    exactly); its leader, of code ``codes[i]`` (:meth:`SumoSource._set_code`: integer id and
+    slot; ``-1``: none), at the bumper-to-bumper gap ``dists[i] + min_gap[s]``
+    (``getLeader``'s distance plus the follower's ``minGap``), kept up to ``lookahead``,
+    whose speed and acceleration are those of its slot.  Empty slots: speed and
+    acceleration 0, the rest NaN and leader ``-1``.  Returns the rows ``ego_speed,
+    ego_accel, gap, lead_speed, lead_accel, lateral_offset`` (0) of one ``(6, N)`` block, the
+    ``leader_id`` and the positions ``i`` whose kept leader has no slot (an unequipped
+    vehicle, whose speed and acceleration the caller reads).
     """
-    ego_v, ego_a = np.zeros(n), np.zeros(n)
-    gap, lead_v, lead_a = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    block = np.empty((6, n))
+    block[:2] = 0.0
+    block[2:5] = np.nan
+    block[5] = 0.0
+    ego_v, ego_a, gap, lead_v, lead_a = block[0], block[1], block[2], block[3], block[4]
     leader = np.full(n, -1, dtype=np.int64)
     for i in range(slots.size):
         s = slots[i]
@@ -1016,16 +1034,16 @@ def _frame_arrays(
     other = np.empty(slots.size, dtype=np.intp)
     k = 0
     for i in range(slots.size):
-        s, g = slots[i], dists[i] + min_gap[slots[i]]
-        if leader_int[i] >= 0 and g <= lookahead:
-            leader[s], gap[s] = leader_int[i], g
-            j = leader_slot[i]
+        s, g, code = slots[i], dists[i] + min_gap[slots[i]], codes[i]
+        if code >= 0 and g <= lookahead:
+            leader[s], gap[s] = code // (n + 1), g
+            j = code % (n + 1) - 1
             if j >= 0:
                 lead_v[s], lead_a[s] = ego_v[j], ego_a[j]
             else:
                 other[k] = i
                 k += 1
-    return ego_v, ego_a, gap, lead_v, lead_a, leader, other[:k]
+    return block, leader, other[:k]
 
 
 def _raw(api: Any, name: str, public: Any) -> Any:
@@ -1043,7 +1061,6 @@ def _public_leader(api: Any) -> Any:
 
 
 _NO_LEADER = ("", -1.0)
-_NO_INFO = (-1, False, False)
 
 
 def _ttc(item: Any) -> float:

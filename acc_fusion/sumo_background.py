@@ -56,6 +56,7 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.errors import AccFusionError, ConfigError
 from acc_fusion.sumo import SumoConfig, SumoError, SumoSource
@@ -74,11 +75,11 @@ OUTBOX_LIMIT = 64 << 20
 CLOSE_TIMEOUT = 30.0
 
 
-#: The float ``(N,)`` arrays of a frame message, in the order they are packed, and their
-#: values in a slot without a vehicle (nor a collision to report).
-_FLOAT_ROWS = ("ego_speed", "ego_accel", "gap", "lead_speed", "lead_accel", "lateral_offset")
-_EMPTY_FLOATS = (0.0, 0.0, np.nan, np.nan, np.nan, 0.0, np.nan)  # the last: collision speed
-#: The boolean ``(N,)`` slot arrays of a frame message, packed likewise (empty: False).
+#: The values of an empty slot (with no collision to report) in the float rows of a frame
+#: message: the rows of the source's frame block (ego speed and acceleration, gap, lead speed
+#: and acceleration, lateral offset), then the collision speed.
+_EMPTY_FLOATS = (0.0, 0.0, np.nan, np.nan, np.nan, 0.0, np.nan)
+#: The slot flags of a frame message, in order (empty: False).
 _FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
 
 
@@ -86,7 +87,7 @@ class _Snapshots:
     """The frame messages of a source, step by step (the child's side of :meth:`_take`).
 
     The ``(N,)`` arrays travel packed into one byte string (pickling costs per array, not
-    per byte, at these sizes): the seven float arrays, the leader ids and the four flags,
+    per byte, at these sizes): the seven float rows, the leader ids and the four flags,
     each cut after the last slot that holds a vehicle, a new vehicle or a collision flag
     (the slots beyond hold the values of an empty slot, which the parent fills in).  The
     slot ids travel as the slots whose id changed, found among the slots that got a new
@@ -98,30 +99,45 @@ class _Snapshots:
         self._was_active = np.zeros(n_pairs, dtype=bool)
 
     def __call__(self, src: SumoSource, caught: list) -> tuple:
-        """The message of ``src``'s current step, with the warnings ``caught`` during it."""
-        frame = src.frame()
-        flags = [getattr(src, name) for name in _FLAG_ROWS]
-        active, reassigned, collided = flags[:3]
-        used = np.flatnonzero(active | reassigned | collided)
-        k = int(used[-1]) + 1 if used.size else 0
-        ids, known = src.vehicle_ids, self._known
+        """The message of ``src``'s current step, with the warnings ``caught`` during it.
+        It reads the source's own arrays (no copies): the frame's block of float rows
+        (:func:`acc_fusion.sumo._frame_arrays`) and the slot flags."""
+        frame, active = src.frame(), src.active
+        reassigned, collided = src._reassigned, src._collided
+        k, candidates = _extent(active, reassigned, collided, self._was_active)
+        ids, known = src._slot_vid, self._known
         changed = {}
-        for i in np.flatnonzero(reassigned | (self._was_active & ~active)).tolist():
+        for i in candidates.tolist():
             if ids[i] != known[i]:
                 changed[i] = known[i] = ids[i]
         self._was_active = active
-        rows = [getattr(frame, name) for name in _FLOAT_ROWS]
-        rows += [src.collision_speed, frame.leader_id, *flags]
+        rows = (src._block, src._collision_speed, frame.leader_id, active, reassigned, collided)
         return (
             "frame",
             frame.t,
             k,
-            b"".join([row[:k].tobytes() for row in rows]),
+            b"".join([row[..., :k].tobytes() for row in (*rows, src._inattentive & active)]),
             changed,
             src.done,
             tuple(getattr(src, c) for c in COUNTERS),
             [(w.category, str(w.message)) for w in caught],
         )
+
+
+@njit(cache=True)
+def _extent(active, reassigned, collided, was_active):  # pragma: no cover - compiled
+    """One past the last slot that holds a vehicle, a new vehicle or a collision flag, and
+    the slots whose id may have changed since the last message (a new vehicle, or a vehicle
+    gone)."""
+    k, m = 0, 0
+    candidates = np.empty(active.size, dtype=np.intp)
+    for i in range(active.size):
+        if active[i] or reassigned[i] or collided[i]:
+            k = i + 1
+        if reassigned[i] or (was_active[i] and not active[i]):
+            candidates[m] = i
+            m += 1
+    return k, candidates[:m]
 
 
 def _failure(exc: BaseException) -> tuple:
