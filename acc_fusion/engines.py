@@ -116,8 +116,7 @@ class BatchedBank(FilterBank):
             np.ascontiguousarray(q, dtype=float),
             _per_filter(q_scale, (k, n), float),
             _per_filter(mask, (k, n), bool),
-            np.zeros(d) if u is None else np.ascontiguousarray(b, dtype=float),
-            _NO_INPUT if u is None else np.ascontiguousarray(u, dtype=float),
+            *kalman.input_args(b, u),
         )
 
     def update(self, j, z, r, h, rows):
@@ -137,9 +136,6 @@ class BatchedBank(FilterBank):
         scale = np.ones(self.n_pairs) if p_scale is None else p_scale
         args = ((mask, bool), (x, float), (p, float), (scale, float))
         kalman.assign(self._x[j], self._p[j], *(np.ascontiguousarray(a, t) for a, t in args))
-
-
-_NO_INPUT = np.zeros(1)
 
 
 def _per_filter(a, shape: tuple[int, int], dtype) -> np.ndarray:

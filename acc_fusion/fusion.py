@@ -59,7 +59,14 @@ from numba import njit
 from acc_fusion.engines import ENGINES, Engine
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.fdi import FDIConfig, WindowedChiSquare, reset_one, window_one
-from acc_fusion.kalman import assign_one, fuse_one, nis_one, predict_one, update_one
+from acc_fusion.kalman import (
+    assign_one,
+    fuse_one,
+    input_args,
+    nis_one,
+    predict_one,
+    update_one,
+)
 from acc_fusion.models import (
     MEAS_DIM,
     MEASUREMENT_MATRIX,
@@ -637,13 +644,12 @@ class FederatedFilter(Estimator):
         """:meth:`_advance` as one call of :func:`_federated_step` (the same arithmetic, in
         the same order, pair by pair: equal to it bit for bit)."""
         used = np.empty(self.n_pairs, dtype=bool)
-        u = None if self._u is None else np.ascontiguousarray(self._u, dtype=float)
         fdi = self.fdi
         fc = self.config.filter
         _federated_step(
             self.master.x[0], self.master.p[0], self.locals.x, self.locals.p, self.f, self.q,
-            self.b if u is not None else np.zeros(STATE_DIM), u if u is not None else _NO_U,
-            self.h, z, r, valid, self.initialised, self._reported_at, *self._track_arrays(),
+            *input_args(self.b, self._u), self.h, z, r, valid, self.initialised,
+            self._reported_at, *self._track_arrays(),
             *(fdi.tests() if fdi is not None else _NO_TESTS),
             fdi.arrays()[6] if fdi is not None else _NO_FDI[6],
             self._inflate, self._feedback, self._increments, self.config.beta == "trace",
@@ -754,14 +760,13 @@ def _gather(z_in, r_in, valid, z, r):  # pragma: no cover - compiled
 
 
 #: Stand-ins for a federated filter without fault detection: its (empty) window arrays and
-#: thresholds, and the known input of a step without one.
+#: thresholds.
 _NO_FDI = (
     np.zeros((0, 0, 0)), np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64),
     np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=bool),
     np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=np.int64),
 )  # fmt: skip
 _NO_TESTS = (0.0, 0.0, 0.0, 0)
-_NO_U = np.zeros(1)
 
 
 @njit(cache=True)

@@ -125,6 +125,14 @@ def _active_rows(rows, k, idx):  # pragma: no cover - compiled
     return m
 
 
+def input_args(b: np.ndarray, u: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The ``b, u`` arguments of :func:`predict` for the known input ``u (N,)`` through
+    ``b (n,)``, or for none (``u`` is ``None``: a zero input)."""
+    if u is None:
+        return np.zeros(STATE_DIM), np.zeros(1)
+    return np.ascontiguousarray(b, dtype=float), np.ascontiguousarray(u, dtype=float)
+
+
 @njit(cache=True)
 def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
     r"""Time update in place: :math:`x \leftarrow F x + b\,u`, :math:`P \leftarrow F P F^\top
