@@ -9,16 +9,21 @@ allows one simulation per process), one after the other:
   leader (``getSpeed``, ``getLeader``) of every vehicle, through libsumo's raw SWIG functions,
   with nothing done with them.  Its ratio to bare is the floor of ``overhead_ratio``: the
   pipeline can overlap SUMO on another core, the reads cannot;
+* **source**: the same background source as the pipeline run below, alone: SUMO in its
+  child process streaming frames that this process only receives.  Its ratio to bare is the
+  child's share, which bounds ``overhead_ratio`` when the pipeline keeps up;
 * **pipeline**: SUMO through :class:`acc_fusion.sumo_background.BackgroundSumoSource` (the
   :class:`acc_fusion.sumo.SumoSource` in a child process, streaming its frames ahead: exact
   in open loop) with the whole FCW pipeline on every equipped vehicle: radar and infrared sensors,
   ego-motion filter, federated fusion with fault detection, warning logic, oracle and
   streaming metrics.  ``--inline`` runs the source in the pipeline's own process instead.
 
-It prints the three wall times, the peak number of vehicles and equipped pairs, the resident
-memory of the pipeline and SUMO processes at a quarter of the run and at its end (memory
-must stay flat: every per-vehicle record is dropped when the vehicle leaves, and the metrics
-stream), ``floor_ratio=<reads wall time / bare wall time>``, and as its last line
+It prints the four wall times (and the pipeline process's CPU time per step), the peak
+number of vehicles and equipped pairs, the resident memory of the pipeline and SUMO processes
+at a quarter of the run and at its end (memory must stay flat: every per-vehicle record is
+dropped when the vehicle leaves, and the metrics stream),
+``source_ratio=<source wall time / bare wall time>``,
+``floor_ratio=<reads wall time / bare wall time>``, and as its last line
 ``overhead_ratio=<pipeline wall time / bare wall time>`` (target: <= 1.5).
 
     python scripts/bench_sumo.py             # 600 s simulated
@@ -69,6 +74,23 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     return elapsed, peak
 
 
+def _source(sumocfg: str, end: float) -> tuple[float]:
+    """Wall time of the background source alone, from its first frame to its last, with
+    nothing done with the frames."""
+    from acc_fusion.sumo import SumoConfig
+    from acc_fusion.sumo_background import BackgroundSumoSource
+
+    source = BackgroundSumoSource(SumoConfig(sumocfg=sumocfg, end=end))
+    t0 = time.perf_counter()
+    try:
+        while not source.done:
+            source.advance()
+    finally:
+        elapsed = time.perf_counter() - t0
+        source.close()
+    return (elapsed,)
+
+
 def _rss_mb(pids: tuple[int | str, ...] = ("self",)) -> float:
     """Resident memory of these processes together [MB] (Linux /proc; else this process's
     peak so far)."""
@@ -82,10 +104,11 @@ def _rss_mb(pids: tuple[int | str, ...] = ("self",)) -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
 
 
-def _pipeline(sumocfg: str, end: float, inline: bool) -> tuple[float, int, float, float]:
+def _pipeline(sumocfg: str, end: float, inline: bool) -> tuple[float, int, float, float, float]:
     """Wall time of SUMO with the FCW pipeline on every equipped vehicle, the peak of
-    simultaneously equipped vehicles, and the resident memory [MB] of the pipeline's process
-    and SUMO's child process together at a quarter of the run and at its end."""
+    simultaneously equipped vehicles, the resident memory [MB] of the pipeline's process
+    and SUMO's child process together at a quarter of the run and at its end, and the
+    pipeline process's CPU time per step [ms]."""
     from acc_fusion.fcw import SimConfig, simulate
     from acc_fusion.sumo import SumoConfig, SumoSource
     from acc_fusion.sumo_background import BackgroundSumoSource
@@ -103,14 +126,14 @@ def _pipeline(sumocfg: str, end: float, inline: bool) -> tuple[float, int, float
         if not rss and view.frame.t >= source.begin + end / 4:
             rss.append(_rss_mb(pids))
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
-        simulate(replace(sim), source=source, on_step=count)
+        steps = simulate(replace(sim), source=source, on_step=count).steps
     finally:
-        elapsed = time.perf_counter() - t0
+        elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
         rss.append(_rss_mb(pids))
         source.close()
-    return elapsed, peak[0], rss[0], rss[-1]
+    return elapsed, peak[0], rss[0], rss[-1], 1e3 * cpu / max(steps, 1)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -129,21 +152,34 @@ def main(argv: list[str] | None = None) -> None:
     sumocfg = str(nets[args.net])
     ctx = multiprocessing.get_context("spawn")
     results = {}
-    runs = (("bare", _bare, ()), ("reads", _bare, (True,)), ("pipeline", _pipeline, (args.inline,)))
+    runs = (
+        ("bare", _bare, ()),
+        ("reads", _bare, (True,)),
+        ("source", _source, ()),
+        ("pipeline", _pipeline, (args.inline,)),
+    )
     for name, func, extra in runs:
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
             results[name] = pool.submit(func, sumocfg, end, *extra).result()
-    (t_bare, peak), (t_pipe, pairs, rss_quarter, rss_end) = results["bare"], results["pipeline"]
-    t_reads = results["reads"][0]
+    (t_bare, peak), (t_pipe, pairs, rss_quarter, rss_end, cpu_step) = (
+        results["bare"],
+        results["pipeline"],
+    )
+    t_reads, t_source = results["reads"][0], results["source"][0]
     print(f"network {args.net}: {end:g} s simulated, peak {peak} vehicles, {pairs} equipped pairs")
     print(f"bare SUMO           {t_bare:8.2f} s wall")
     print(f"SUMO + reads only   {t_reads:8.2f} s wall (speed and leader of every vehicle)")
+    print(f"SUMO source alone   {t_source:8.2f} s wall (child process, frames only received)")
     where = "in the pipeline's process" if args.inline else "in a child process, streaming ahead"
-    print(f"SUMO + FCW pipeline {t_pipe:8.2f} s wall (SUMO {where})")
+    print(
+        f"SUMO + FCW pipeline {t_pipe:8.2f} s wall (SUMO {where}; "
+        f"the pipeline's process {cpu_step:.2f} ms CPU per step)"
+    )
     print(
         f"memory (pipeline and SUMO processes): {rss_quarter:.0f} MB at {end / 4:g} s, "
         f"{rss_end:.0f} MB at {end:g} s ({rss_end - rss_quarter:+.1f} MB)"
     )
+    print(f"source_ratio={t_source / t_bare:.3f}")
     print(f"floor_ratio={t_reads / t_bare:.3f}")
     print(f"overhead_ratio={t_pipe / t_bare:.3f}")
 

@@ -89,7 +89,8 @@ def test_bench_sumo_prints_the_floor_and_the_overhead_ratio():
     out = run("bench_sumo.py", "--net", "ring", "--end", "20").stdout
     lines = out.strip().splitlines()
     assert lines[0].startswith("network ring: 20 s simulated, peak ")
-    for run_name in ("bare SUMO", "SUMO + reads only", "SUMO + FCW pipeline"):
+    for run_name in ("bare SUMO", "SUMO + reads only", "SUMO source alone", "SUMO + FCW pipeline"):
         assert any(line.startswith(run_name) for line in lines), run_name
+    assert re.fullmatch(r"source_ratio=[0-9.]+", lines[-3])
     assert re.fullmatch(r"floor_ratio=[0-9.]+", lines[-2])
     assert re.fullmatch(r"overhead_ratio=[0-9.]+", lines[-1])
