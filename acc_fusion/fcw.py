@@ -371,6 +371,7 @@ def simulate(
             if new is not None and new.any():
                 for m in cfg.methods:
                     logic[m].reset(new)
+                    metrics[m].reset(new)
                 if driver is not None:
                     driver.reset(new)
             levels = {}

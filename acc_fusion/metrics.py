@@ -49,7 +49,9 @@ Counting
     is called.  Call :meth:`finish` at the end of a run before reading the summary.
 
 Inactive pairs close their open intervals; an event's tail still runs on time, so a pair
-that is inactive for less than :math:`\tau` can still match across the gap.  Pairs flagged
+that is inactive for less than :math:`\tau` can still match across the gap.  When a new
+vehicle takes a pair over (a slot of a traffic source), :meth:`FCWMetrics.reset` settles the
+events of the vehicle before it, which must not match the newcomer's across that gap.  Pairs flagged
 ``collided`` count one collision per run of flagged steps (whether or not active).
 Exposure (hours, km) and the per-step confusion matrix count active pair-steps only.
 
@@ -107,11 +109,13 @@ class _Events(PairState):
         """``(on, live, matched, start, end)``, what :func:`_event_step` advances."""
         return self.on, self.live, self.matched, self.start, self.end
 
-    def finish(self) -> np.ndarray:
-        """End every event; returns the pairs whose event was unmatched."""
-        unmatched = self.live & ~self.matched
-        self.on[:] = False
-        self.live[:] = False
+    def finish(self, pairs: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """End the events of ``pairs`` (a boolean mask; all by default); returns the pairs
+        whose event was unmatched."""
+        unmatched = np.zeros(self.live.size, dtype=bool)
+        unmatched[pairs] = self.live[pairs] & ~self.matched[pairs]
+        self.on[pairs] = False
+        self.live[pairs] = False
         return unmatched
 
 
@@ -374,6 +378,15 @@ class FCWMetrics(PairState):
         self._add(false_alarms=self._warnings.finish(), missed=self._threats.finish())
         self._collided[:] = False
         self._last_t = -math.inf
+
+    def reset(self, pairs: np.ndarray) -> None:
+        """A new vehicle takes over ``pairs`` (a boolean mask, :attr:`SlotSource.reassigned`):
+        end the events of the vehicle before it, whose tails could otherwise match the new
+        vehicle's events within :math:`\tau`.  Its unmatched warning or threat counts as a
+        false alarm or a miss now (nothing can match it any more); the totals, the exposure
+        and the per-pair sums carry on."""
+        pairs = self._mask("pairs", pairs)
+        self._add(false_alarms=self._warnings.finish(pairs), missed=self._threats.finish(pairs))
 
     def merge(self, other: FCWMetrics) -> None:
         """Add the counts, exposure and distributions of ``other`` (a finished instance).

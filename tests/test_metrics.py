@@ -192,6 +192,31 @@ def test_inactive_steps():
     assert s.false_alarms_per_hour.hi == math.inf
 
 
+def test_a_new_vehicle_in_a_pair_does_not_inherit_the_events_of_the_one_before():
+    # Pair 0: the first vehicle warns at 0.2-0.5 s and leaves at 0.6 s; a new one takes the
+    # slot at 0.7 s and is threatened from 0.8 s, within the tolerance of the old warning.
+    # Pair 1 keeps its vehicle, warned and threatened together.
+    system = levels("0011100000000000", "0011100000000000")
+    oracle = levels("0000000011100000", "0011100000000000")
+    active = np.ones((16, 2), bool)
+    active[6, 0] = False  # the slot is empty for one step
+    kept = run(system, oracle, active=active)
+    assert counts(kept) == (2, 0, 2, 2, 0)  # without the reset the two vehicles match
+    m = FCWMetrics(2, DT)
+    run(system[:7], oracle[:7], active=active[:7], metrics=m, finish=False)
+    m.reset(np.array([True, False]))  # the new vehicle's first step
+    m.update(0.7, system[7], oracle[7], np.full(2, 5.0), np.full(2, 20.0), active[7])
+    assert m.summary().false_alarms == 1  # the old warning: final, and unmatched
+    for k in range(8, 16):
+        m.update(k * DT, system[k], oracle[k], np.full(2, 5.0), np.full(2, 20.0), active[k])
+    m.finish(1.6)
+    assert counts(m) == (2, 1, 2, 1, 1)  # the new vehicle's threat is its own: missed
+    assert m.per_pair()["false_alarms"].tolist() == [1, 0]
+    assert m.summary().hours == kept.summary().hours  # the exposure carries on
+    with pytest.raises(InputError, match="pairs must be a boolean array of shape"):
+        m.reset(np.array([0, 1]))
+
+
 def test_collisions_count_once_per_run_of_flags():
     flags = np.zeros((20, 3), bool)
     flags[4, 0] = True  # one pulse
