@@ -51,8 +51,9 @@ Counting
 Inactive pairs close their open intervals; an event's tail still runs on time, so a pair
 that is inactive for less than :math:`\tau` can still match across the gap.  When a new
 vehicle takes a pair over (a slot of a traffic source), :meth:`FCWMetrics.reset` settles the
-events of the vehicle before it, which must not match the newcomer's across that gap.  Pairs flagged
-``collided`` count one collision per run of flagged steps (whether or not active).
+events of the vehicle before it, which must not match the newcomer's across that gap.
+Pairs flagged ``collided`` count one collision per run of flagged steps (whether or not
+active).
 Exposure (hours, km) and the per-step confusion matrix count active pair-steps only.
 
 Memory is constant: a few per-pair arrays, a fixed number of counters, and fixed-bin
@@ -382,7 +383,7 @@ class FCWMetrics(PairState):
     def reset(self, pairs: np.ndarray) -> None:
         """A new vehicle takes over ``pairs`` (a boolean mask, :attr:`SlotSource.reassigned`):
         end the events of the vehicle before it, whose tails could otherwise match the new
-        vehicle's events within :math:`\tau`.  Its unmatched warning or threat counts as a
+        vehicle's events within :math:`\\tau`.  Its unmatched warning or threat counts as a
         false alarm or a miss now (nothing can match it any more); the totals, the exposure
         and the per-pair sums carry on."""
         pairs = self._mask("pairs", pairs)
