@@ -268,11 +268,13 @@ class BackgroundSumoSource(SlotSource):
         self._closed = True
         mine, theirs = socket.socketpair()
         fd = theirs.fileno()
-        code = f"from acc_fusion.sumo_background import _child; _child({fd})"
-        path = os.pathsep.join(
-            p for p in sys.path if p
-        )  # the parent's imports, also from a checkout
-        env = {**os.environ, "PYTHONPATH": path}
+        # The parent's imports (also from a checkout), and not the working directory that
+        # ``python -c`` puts first: a package there would shadow the parent's.
+        code = (
+            "import sys; sys.path[:] = [p for p in sys.path if p]; "
+            f"from acc_fusion.sumo_background import _child; _child({fd})"
+        )
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
         self._proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(fd,), env=env)
         theirs.close()
         self._conn = Connection(mine.detach())

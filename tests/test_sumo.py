@@ -450,6 +450,21 @@ def test_same_frames_and_ssm_as_the_in_process_source(road):
     assert inline[-1][6][3] > 0 and ssm_bg == ssm and any(np.isfinite(list(ssm.values())))
 
 
+def test_the_child_imports_the_parents_package_whatever_the_working_directory(
+    road, tmp_path, monkeypatch
+):
+    """``python -c`` puts the working directory first on ``sys.path``: a package there (an old
+    checkout, say) must not shadow the parent's in the child."""
+    shadow = tmp_path / "acc_fusion"
+    shadow.mkdir()
+    (shadow / "__init__.py").write_text("raise ImportError('the shadowing copy was imported')\n")
+    monkeypatch.chdir(tmp_path)
+    with BackgroundSumoSource(config(road, end=1.0)) as src:
+        while not src.done:
+            src.advance()
+    assert src.t == pytest.approx(1.0)
+
+
 def test_open_loop_only(road):
     with BackgroundSumoSource(config(road, end=5.0)) as src:
         src.advance(np.zeros(src.n_pairs))  # no request: fine

@@ -1,0 +1,114 @@
+"""The compiled SUMO reader (acc_fusion.native): built from the installed SUMO wheels, the same
+values as libsumo's Python functions, and a clean fallback where it cannot be built."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+libsumo = pytest.importorskip("libsumo")
+
+import acc_fusion.native as native  # noqa: E402
+from acc_fusion.sumo import SumoConfig, SumoSource  # noqa: E402
+from acc_fusion.traffic import bundled_nets  # noqa: E402
+
+BUILDS_HERE = sys.platform.startswith("linux") and bool(shutil.which("c++") or shutil.which("g++"))
+
+
+@pytest.fixture
+def fresh(monkeypatch, tmp_path):
+    """An empty cache, and ``sumo_reader`` forgetting what it built or decided before."""
+    monkeypatch.setenv("ACC_FUSION_CACHE", str(tmp_path / "cache"))
+    native.sumo_reader.cache_clear()
+    yield tmp_path / "cache"
+    native.sumo_reader.cache_clear()
+
+
+def frames(cfg: SumoConfig) -> list[np.ndarray]:
+    """Every step's frame arrays and slot ids."""
+    out = []
+    with SumoSource(cfg) as src:
+        assert (src._native is not None) == cfg.native
+        while True:
+            f = src.frame()
+            rows = [f.ego_speed, f.ego_accel, f.gap, f.lead_speed, f.lead_accel, f.leader_id]
+            out.append((np.stack(rows), src.vehicle_ids))
+            if src.done:
+                return out
+            src.advance()
+
+
+@pytest.mark.skipif(not BUILDS_HERE, reason="the compiled reader is built on Linux with c++")
+def test_it_builds_here_and_gives_libsumos_values_bit_for_bit():
+    """On the on-ramp (merges, unequipped leaders at 60 % penetration, hazards): every frame
+    read by the compiled reader equals the one read through libsumo's Python functions."""
+    assert native.sumo_reader() is not None  # CI would otherwise only test the fallback
+    net = str(bundled_nets()["onramp"])
+    kw = dict(end=120.0, seed=3, penetration=0.6, hazard_rate=50.0)
+    fast, slow = (frames(SumoConfig(net, native=flag, **kw)) for flag in (True, False))
+    assert len(fast) == len(slow) == 1201
+    for (a, ids_a), (b, ids_b) in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a, b)  # NaN where NaN, else the same bits
+        assert ids_a == ids_b
+    leaders = np.stack([a[5] for a, _ in fast])
+    assert (leaders >= 0).sum() > 10_000  # the comparison saw many pairs with a leader
+
+
+@pytest.mark.skipif(not BUILDS_HERE, reason="the compiled reader is built on Linux with c++")
+def test_it_is_compiled_once_into_the_cache_and_raises_libsumos_error(fresh):
+    reader = native.sumo_reader()
+    built = list(fresh.iterdir())
+    assert reader is not None and len(built) == 1 and built[0].name.startswith("_sumo_reads-")
+    stamp = built[0].stat().st_mtime_ns
+    native.sumo_reader.cache_clear()
+    assert native.sumo_reader() is not None and built[0].stat().st_mtime_ns == stamp
+    with SumoSource(SumoConfig(str(bundled_nets()["ring"]), end=2.0)):
+        speed, dist, code = np.empty(1), np.empty(1), np.empty(1, dtype=np.int64)
+        with pytest.raises(libsumo.TraCIException):
+            reader.read(["no such vehicle"], 100.0, {}, speed, dist, code)
+        with pytest.raises(ValueError, match="8-byte buffers"):
+            reader.read(["x", "y"], 100.0, {}, speed, dist, code)
+
+
+def test_without_a_compiler_it_warns_once_and_the_source_reads_through_libsumo(fresh, monkeypatch):
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("CXX", "false")  # a "compiler" that always fails
+    with pytest.warns(RuntimeWarning, match=r"not available \(false failed"):
+        assert native.sumo_reader() is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert native.sumo_reader() is None  # decided once per process
+        with SumoSource(SumoConfig(str(bundled_nets()["ring"]), end=2.0)) as src:
+            assert src._native is None
+            while not src.done:
+                src.advance()
+    assert not fresh.exists() or not any(fresh.iterdir())  # nothing half-written
+
+
+def test_it_can_be_switched_off_without_a_warning(fresh, monkeypatch):
+    monkeypatch.setenv("ACC_FUSION_NATIVE", "0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert native.sumo_reader() is None
+    with pytest.raises(Exception, match="native must be true or false"):
+        SumoConfig("x.sumocfg", native="yes")
+
+
+def test_other_platforms_and_mismatched_wheels_fall_back_with_the_reason(fresh, monkeypatch):
+    monkeypatch.setattr(sys, "platform", "darwin")
+    with pytest.warns(RuntimeWarning, match="built on Linux only, this is darwin"):
+        assert native.sumo_reader() is None
+    native.sumo_reader.cache_clear()
+    monkeypatch.setattr(sys, "platform", "linux")
+    real = native.importlib.metadata.version
+    monkeypatch.setattr(
+        native.importlib.metadata,
+        "version",
+        lambda name: "0.0.1" if name == "eclipse-sumo" else real(name),
+    )
+    with pytest.warns(RuntimeWarning, match=r"libsumo \S+ and eclipse-sumo 0.0.1 differ"):
+        assert native.sumo_reader() is None
