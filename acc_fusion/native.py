@@ -5,8 +5,9 @@ Per step the SUMO source reads every equipped vehicle's speed and leader.  Throu
 Python functions each read is a SWIG call (argument conversion, a Python object per result);
 ``sumo_reads.cpp`` (beside this module) makes the same calls to libsumo's C++ API
 (``libsumo::Vehicle::getSpeed``, ``libsumo::Vehicle::getLeader``) for all vehicles in one
-Python call, writing into numpy arrays.  The values are those of libsumo's own functions, bit
-for bit (``tests/test_native.py`` compares whole runs); on the motorway of
+Python call, writing into numpy arrays, and looks each leader's code up in a C++ table
+(``Codes``) without making a Python string of its id.  The values are those of libsumo's own
+functions, bit for bit (``tests/test_native.py`` compares whole runs); on the motorway of
 ``scripts/bench_sumo.py`` the reads cost about 0.4 of the SWIG calls' time.
 
 Built on first use
@@ -71,10 +72,12 @@ def sumo_reader() -> ModuleType | None:
     ``RuntimeWarning`` per process naming the reason) where it cannot be built, or when
     ``ACC_FUSION_NATIVE=0``.
 
-    Its ``read(vids, lookahead, codes, speed, dist, code)`` reads, for each vehicle id in the
-    list ``vids``, ``speed[i]`` (``getSpeed``) and the leader within ``lookahead``
+    Its ``read(vids, lookahead, codes, n_pairs, speed, dist, code)`` reads, for each vehicle
+    id in the list ``vids``, ``speed[i]`` (``getSpeed``) and the leader within ``lookahead``
     (``getLeader``): ``dist[i]`` its distance, ``code[i] = codes[leader]`` (``-1`` without a
-    leader or a code); it returns the leader ids (``""`` without one).  A failed read raises
+    leader or a code), ``codes`` being its ``Codes()`` table (str to int, with the dict
+    methods the source uses, looked up in C++); it returns ``{i: leader id}`` for the leaders
+    whose code has no slot (``code % (n_pairs + 1) == 0``).  A failed read raises
     ``libsumo.TraCIException``, as libsumo's functions do.
     """
     if os.environ.get("ACC_FUSION_NATIVE", "1") == "0":

@@ -478,8 +478,10 @@ class SumoSource(SlotSource):
                 "a libsumo simulation started outside acc_fusion is running in this process; "
                 "close it first (libsumo runs one simulation per process)"
             )
-        self._tmpdir = tempfile.mkdtemp(prefix="acc_fusion_sumo_")
-        ssm_file = os.path.join(self._tmpdir, "ssm.xml")
+        ssm_file = None
+        if cfg.ssm:  # SUMO's SSM device writes a file nobody reads: a directory of our own
+            self._tmpdir = tempfile.mkdtemp(prefix="acc_fusion_sumo_")
+            ssm_file = os.path.join(self._tmpdir, "ssm.xml")
         cmd = sumo_command(cfg, cfg_path, ssm_file)
         captured: list[str] = []
         try:
@@ -536,9 +538,9 @@ class SumoSource(SlotSource):
         ss = np.random.SeedSequence(int(cfg.seed)).spawn(3)
         self._rng_equip, self._rng_inatt, self._rng_hazard = (np.random.default_rng(s) for s in ss)
         # Per vehicle in the network: (integer id, equipped, inattentive), and the code of its
-        # integer id and slot (_set_code).
+        # integer id and slot (_set_code; the compiled reader's table where it reads).
         self._info: dict[str, tuple[int, bool, bool]] = {}
-        self._code: dict[str, int] = {}
+        self._code: dict[str, int] = {} if self._native is None else self._native.Codes()
         self._teleporting: set[str] = set()
         self._next_int = 0
         self._slot_of: dict[str, int] = {}
@@ -971,7 +973,8 @@ class SumoSource(SlotSource):
         accel = self._new_accel
         if self._native is not None:  # one call for every vehicle
             speed, dists, codes = np.empty(m), np.empty(m), np.empty(m, dtype=np.int64)
-            lead_ids = self._native.read(vids, lookahead, self._code, speed, dists, codes)
+            n = self.n_pairs  # the ids of the leaders without a slot, by position
+            lead_ids = self._native.read(vids, lookahead, self._code, n, speed, dists, codes)
         else:
             if self._subscribed:
                 rows = [res[v] for v in vids]
@@ -999,7 +1002,7 @@ class SumoSource(SlotSource):
         )
         ego_v, ego_a, gap, lead_v, lead_a, lateral = block
         if other.size:  # leaders without a slot: their own getters
-            others, at = [lead_ids[i] for i in other], slots[other]
+            others, at = [lead_ids[i] for i in other.tolist()], slots[other]
             if self._subscribed:
                 lead_v[at] = [res[x][sp] for x in others]
                 lead_a[at] = [res[x][ac] for x in others]

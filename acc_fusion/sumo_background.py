@@ -7,11 +7,11 @@
 itself runs in a child process.  The child steps SUMO, reads the frame and sends it, without
 waiting to be asked, so the SUMO steps and the libsumo reads run on one core while the
 pipeline processes earlier frames on the other.  The child never waits for the parent to
-read, up to :data:`OUTBOX_LIMIT` bytes of frames: what the socket does not take waits in the
-child's memory (:class:`_Outbox`).  That matters because the two sides' costs move in
-opposite phases: SUMO's step grows with the traffic (0.15 ms per step while the motorway
-fills, 1 ms at its peak) while the pipeline's is nearly fixed, so the child runs hundreds of
-frames ahead early and the parent catches up later.
+read while its :class:`_FrameRing` has room (:data:`RING_BYTES`, about 800 frames of the
+motorway at its peak).  That matters because the two sides' costs move in opposite phases:
+SUMO's step grows with the traffic (0.15 ms per step while the motorway fills, 1 ms at its
+peak) while the pipeline's is nearly fixed, so the child runs hundreds of frames ahead early
+and the parent catches up later.
 Nothing waits for a request per step: on a virtual machine, waking a sleeping process costs
 a quarter of a millisecond or more, as much as a SUMO step, and a request-reply per frame
 paid it twice per step.
@@ -30,18 +30,22 @@ Processes
     The child is a fresh interpreter (``python -c``, not ``multiprocessing``: a user's script
     without a ``__main__`` guard is not re-imported), connected by a socket pair; libsumo
     holds one simulation per process, so any number of background sources can run in one
-    parent process, each with its own child.  Frames cross the socket pickled, their ``(N,)``
-    arrays packed into one byte string up to the last slot in use (:class:`_Snapshots`):
-    about 60 µs of the child's time per step on the motorway's 300 to 600 vehicles.  The
-    source's ``RuntimeWarning`` s (e.g. more equipped vehicles than slots) are re-issued in
-    the parent.  A SUMO failure in the child reaches the parent as the same
-    :class:`~acc_fusion.sumo.SumoError` at the frame where it happened (the frames before it
-    were delivered); a child that dies is a :class:`~acc_fusion.sumo.SumoError` naming its
-    exit code.
+    parent process, each with its own child.  A frame's ``(N,)`` arrays, cut after the last
+    slot in use (:class:`_Snapshots`), are written into a ring of memory shared by the two
+    processes (:class:`_FrameRing`) and copied out by the parent: no pickling and no copy
+    through the kernel for the bulk of a frame, which cost the child a tenth of a SUMO step
+    on the motorway.  The rest of the frame (time, slot ids that changed, counters,
+    warnings) and the frame's place in the ring cross the socket pickled; the parent
+    returns the ring's room as it reads.  The source's ``RuntimeWarning`` s (e.g. more
+    equipped vehicles than slots) are re-issued in the parent.  A SUMO failure in the
+    child reaches the parent as the same :class:`~acc_fusion.sumo.SumoError` at the frame
+    where it happened (the frames before it were delivered); a child that dies is a
+    :class:`~acc_fusion.sumo.SumoError` naming its exit code.
 """
 
 from __future__ import annotations
 
+import mmap
 import os
 import pickle
 import select
@@ -50,8 +54,10 @@ import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import warnings
 from collections import deque
+from itertools import islice
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -65,12 +71,19 @@ from acc_fusion.validation import check_array
 
 #: Counters of :class:`~acc_fusion.sumo.SumoSource` mirrored by the background source.
 COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
-#: Bytes of frames the child may hold for the parent beyond the socket's buffer before it
-#: waits: about 800 frames of 1 024 slots.  SUMO's step costs grow with the traffic while the
-#: pipeline's are fixed, so the child runs ahead while the network fills and the parent
-#: catches up later; a buffer of a few frames made each process wait on the other's slow
-#: steps instead.
-OUTBOX_LIMIT = 64 << 20
+#: Bytes of the ring of shared memory the child writes frames into (at least 16 frames of
+#: every slot): about 800 frames of the motorway at its peak, more while it fills.  SUMO's
+#: step costs grow with the traffic while the pipeline's are fixed, so the child runs ahead
+#: while the network fills and the parent catches up later; a buffer of a few frames made
+#: each process wait on the other's slow steps instead.
+RING_BYTES = 32 << 20
+#: Bytes of messages the child may hold for the parent beyond the socket's buffer before it
+#: waits (the frames' arrays travel in the ring; this is the rest of them).
+OUTBOX_LIMIT = 16 << 20
+#: Frame messages the child writes to the socket at a time (see :class:`_Outbox`).
+OUTBOX_BATCH = 8
+#: Buffers per ``writev`` (POSIX guarantees at least 16).
+_IOV_MAX = 16
 #: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
 CLOSE_TIMEOUT = 30.0
 
@@ -83,25 +96,120 @@ _EMPTY_FLOATS = (0.0, 0.0, np.nan, np.nan, np.nan, 0.0, np.nan)
 _FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
 
 
+def _frame_bytes(k: int) -> int:
+    """Bytes of a frame's arrays cut after ``k`` slots (seven float rows, the leader ids and
+    four flags), rounded up to 8 so every frame starts aligned."""
+    return -(-(8 * (len(_EMPTY_FLOATS) + 1) + len(_FLAG_ROWS)) * k // 8) * 8
+
+
+def _ring_bytes(n_pairs: int) -> int:
+    """Bytes of the ring of a source of ``n_pairs`` slots (see :data:`RING_BYTES`)."""
+    return max(RING_BYTES, 16 * _frame_bytes(n_pairs))
+
+
+class _FrameRing:
+    """Frames' arrays in memory shared by the child (writing) and the parent (reading).
+
+    A frame takes :func:`_frame_bytes` bytes at a *position* that only grows; it lies at
+    ``position % size`` in the memory, and a frame that would cross the end starts at the
+    beginning instead.  The child may write up to ``size`` bytes past what the parent has
+    returned: the parent returns the room behind the frames it has copied (an ``("ack",
+    position)`` message, each time an eighth of the ring has been read), and the child
+    waits for it only when the ring is full.  The memory is a file descriptor passed to
+    the child (``memfd``, else an unlinked temporary file), mapped with its pages in place
+    so the processes' memory stays flat as the ring fills.
+    """
+
+    def __init__(self, fd: int, size: int) -> None:
+        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
+        self.size = size
+        self._memory = mmap.mmap(fd, size, flags=flags)
+        self._bytes = np.frombuffer(self._memory, np.uint8)
+
+    @staticmethod
+    def create(size: int) -> int:
+        """A new shared file descriptor of ``size`` bytes (inheritable by ``pass_fds``)."""
+        if hasattr(os, "memfd_create"):
+            fd = os.memfd_create("acc_fusion_frames")
+        else:
+            fd, path = tempfile.mkstemp(prefix="acc_fusion_frames_")
+            os.unlink(path)
+        os.ftruncate(fd, size)
+        return fd
+
+    def place(self, position: int, nbytes: int) -> int:
+        """Where a frame of ``nbytes`` written after ``position`` starts."""
+        offset = position % self.size
+        return position if offset + nbytes <= self.size else position + self.size - offset
+
+    def write(self, position: int, rows: tuple[np.ndarray, ...], k: int) -> None:
+        """Write the first ``k`` columns of each of ``rows`` one after the other."""
+        offset = position % self.size
+        for row in rows:
+            part = row[..., :k]
+            end = offset + part.nbytes
+            self._bytes[offset:end].view(part.dtype).reshape(part.shape)[...] = part
+            offset = end
+
+    def view(self, position: int, nbytes: int) -> np.ndarray:
+        """The ``nbytes`` written at ``position`` (a view: copy before returning the room)."""
+        offset = position % self.size
+        return self._bytes[offset : offset + nbytes]
+
+
+class _RingWriter:
+    """The child's side of a :class:`_FrameRing`: where the next frame goes, waiting for the
+    parent to return room only when the ring is full (after sending it everything queued,
+    which it needs to catch up)."""
+
+    def __init__(self, ring: _FrameRing, conn: Connection, outbox: _Outbox) -> None:
+        self._ring, self._conn, self._outbox = ring, conn, outbox
+        self._head = self._returned = 0
+
+    def write(self, rows: tuple[np.ndarray, ...], k: int) -> int:
+        """Write a frame's rows (cut after ``k`` slots); returns its position."""
+        nbytes = _frame_bytes(k)
+        start = self._ring.place(self._head, nbytes)
+        while start + nbytes - self._returned > self._ring.size:
+            self._await_room()
+        self._ring.write(start, rows, k)
+        self._head = start + nbytes
+        return start
+
+    def _await_room(self) -> None:
+        fd = self._conn.fileno()
+        if not select.select([fd], [], [], 0)[0]:
+            self._outbox.flush()
+        os.set_blocking(fd, True)  # the outbox keeps it non-blocking
+        try:
+            message = self._conn.recv()
+        finally:
+            os.set_blocking(fd, False)
+        if not (isinstance(message, tuple) and message[0] == "ack"):
+            raise SumoError(f"the parent sent {message!r} while frames were streaming")
+        self._returned = max(self._returned, message[1])
+
+
 class _Snapshots:
     """The frame messages of a source, step by step (the child's side of :meth:`_take`).
 
-    The ``(N,)`` arrays travel packed into one byte string (pickling costs per array, not
-    per byte, at these sizes): the seven float rows, the leader ids and the four flags,
-    each cut after the last slot that holds a vehicle, a new vehicle or a collision flag
-    (the slots beyond hold the values of an empty slot, which the parent fills in).  The
-    slot ids travel as the slots whose id changed, found among the slots that got a new
-    vehicle or lost theirs since the last message (the only ways a slot's id changes).
+    The ``(N,)`` arrays go into the ring (:class:`_RingWriter`): the seven float rows, the
+    leader ids and the four flags, each cut after the last slot that holds a vehicle, a new
+    vehicle or a collision flag (the slots beyond hold the values of an empty slot, which
+    the parent fills in); the message gives their position.  The slot ids travel as the
+    slots whose id changed, found among the slots that got a new vehicle or lost theirs
+    since the last message (the only ways a slot's id changes).
     """
 
-    def __init__(self, n_pairs: int) -> None:
+    def __init__(self, n_pairs: int, ring: _RingWriter) -> None:
         self._known: list[str | None] = [None] * n_pairs  # the slot ids the parent has
         self._was_active = np.zeros(n_pairs, dtype=bool)
+        self._ring = ring
 
     def __call__(self, src: SumoSource, caught: list) -> tuple:
-        """The message of ``src``'s current step, with the warnings ``caught`` during it.
-        It reads the source's own arrays (no copies): the frame's block of float rows
-        (:func:`acc_fusion.sumo._frame_arrays`) and the slot flags."""
+        """The message of ``src``'s current step, with the warnings ``caught`` during it,
+        its arrays written into the ring from the source's own (no copies): the frame's
+        block of float rows (:func:`acc_fusion.sumo._frame_arrays`) and the slot flags."""
         frame, active = src.frame(), src.active
         reassigned, collided = src._reassigned, src._collided
         k, candidates = _extent(active, reassigned, collided, self._was_active)
@@ -112,11 +220,12 @@ class _Snapshots:
                 changed[i] = known[i] = ids[i]
         self._was_active = active
         rows = (src._block, src._collision_speed, frame.leader_id, active, reassigned, collided)
+        position = self._ring.write((*rows, src._inattentive & active), k)
         return (
             "frame",
             frame.t,
             k,
-            b"".join([row[..., :k].tobytes() for row in (*rows, src._inattentive & active)]),
+            position,
             changed,
             src.done,
             tuple(getattr(src, c) for c in COUNTERS),
@@ -146,22 +255,29 @@ def _failure(exc: BaseException) -> tuple:
     return ("error", kind, str(exc) or type(exc).__name__)
 
 
-def _child(fd: int) -> None:
-    """Entry point of the child process: serve the config it receives on socket ``fd``.
+def _child(fd: int, ring_fd: int, ring_size: int) -> None:
+    """Entry point of the child process: serve the config it receives on socket ``fd``,
+    writing the frames' arrays into the ring of ``ring_size`` bytes shared as ``ring_fd``.
     Ctrl-C is the parent's to handle: the child ends when the parent closes the socket."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     conn = Connection(fd)
-    _serve(conn.recv(), conn)
+    ring = _FrameRing(ring_fd, ring_size)
+    os.close(ring_fd)  # the mapping stays
+    _serve(conn.recv(), conn, ring)
 
 
 class _Outbox:
     """Messages to the parent, written to the socket without blocking SUMO's stepping.
 
-    A message that does not fit in the socket's buffer waits here, in order, and is written
-    as the parent reads; only when more than ``limit`` bytes wait does :meth:`put` block until
-    the parent has caught up to ``limit``.  The bytes on the socket are those of
-    ``Connection.send`` (a 4-byte big-endian length, then the pickle), so the parent reads
-    them with ``Connection.recv``.  The socket is non-blocking while the outbox is open.
+    Messages are written :data:`OUTBOX_BATCH` at a time (one ``writev``), or at once when
+    :meth:`put` is told ``now``: a parent waiting for frames is woken once per batch, not
+    per frame, and waking a process costs the waker as much as a SUMO step on a virtual
+    machine.  A message that does not fit in the socket's buffer waits here, in order, and
+    is written as the parent reads; only when more than ``limit`` bytes wait does
+    :meth:`put` block until the parent has caught up to ``limit``.  The bytes on the socket
+    are those of ``Connection.send`` (a 4-byte big-endian length, then the pickle), so the
+    parent reads them with ``Connection.recv``.  The socket is non-blocking while the outbox
+    is open.
     """
 
     def __init__(self, fd: int, limit: int) -> None:
@@ -170,12 +286,18 @@ class _Outbox:
         self._queued = 0
         os.set_blocking(fd, False)
 
-    def put(self, message: tuple) -> None:
+    def put(self, message: tuple, now: bool = False) -> None:
         data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
         for part in (struct.pack("!i", len(data)), data):
             self._queue.append(memoryview(part))
             self._queued += len(part)
-        self._write(self._limit)
+        batch = len(self._queue) >= 2 * OUTBOX_BATCH  # two parts a message
+        if now or batch or self._queued > self._limit:
+            self._write(self._limit)
+
+    def flush(self) -> None:
+        """Write everything still waiting (blocking)."""
+        self._write(0)
 
     def close(self) -> None:
         """Write everything still waiting (blocking), and make the socket blocking again."""
@@ -184,25 +306,27 @@ class _Outbox:
 
     def _write(self, keep: int) -> None:
         """Write what the socket takes; block while more than ``keep`` bytes wait."""
-        while self._queue:
+        queue = self._queue
+        while queue:
             try:
-                sent = os.write(self._fd, self._queue[0])
+                sent = os.writev(self._fd, list(islice(queue, _IOV_MAX)))
             except BlockingIOError:
                 if self._queued <= keep:
                     return
                 select.select([], [self._fd], [])
                 continue
             self._queued -= sent
-            if sent == len(self._queue[0]):
-                self._queue.popleft()
-            else:
-                self._queue[0] = self._queue[0][sent:]
+            while sent >= len(queue[0]):
+                sent -= len(queue.popleft())
+                if not queue:
+                    return
+            queue[0] = queue[0][sent:]
 
 
-def _serve(config: SumoConfig, conn: Any) -> None:
+def _serve(config: SumoConfig, conn: Any, ring: _FrameRing) -> None:
     """Run a :class:`SumoSource` to its end, sending every frame as soon as it is read
-    (through an :class:`_Outbox`); then answer ``"ssm"`` requests until the parent closes
-    the socket."""
+    (its arrays through ``ring``, the rest through an :class:`_Outbox`); then answer
+    ``"ssm"`` requests until the parent closes the socket."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -214,8 +338,8 @@ def _serve(config: SumoConfig, conn: Any) -> None:
             outbox = _Outbox(conn.fileno(), OUTBOX_LIMIT)
             meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
             outbox.put(("meta", meta))
-            snapshot = _Snapshots(src.n_pairs)
-            outbox.put(snapshot(src, caught))
+            snapshot = _Snapshots(src.n_pairs, _RingWriter(ring, conn, outbox))
+            outbox.put(snapshot(src, caught), now=True)  # the parent waits for it
             while not src.done:
                 caught.clear()
                 try:
@@ -225,8 +349,12 @@ def _serve(config: SumoConfig, conn: Any) -> None:
                     break
                 outbox.put(snapshot(src, caught))
             outbox.close()
-            while conn.recv() == "ssm":
-                conn.send(("ssm", src.ssm_min_ttc()))
+            while True:
+                request = conn.recv()
+                if request == "ssm":
+                    conn.send(("ssm", src.ssm_min_ttc()))
+                elif request[0] != "ack":  # acks: the room returned after the last frames
+                    break
         except (EOFError, OSError):  # the parent closed the socket (or went away)
             pass
         finally:
@@ -267,16 +395,24 @@ class BackgroundSumoSource(SlotSource):
         self.config = config
         self._closed = True
         mine, theirs = socket.socketpair()
-        fd = theirs.fileno()
+        fd, size = theirs.fileno(), _ring_bytes(int(config.capacity))
+        ring_fd = _FrameRing.create(size)
         # The parent's imports (also from a checkout), and not the working directory that
         # ``python -c`` puts first: a package there would shadow the parent's.
         code = (
             "import sys; sys.path[:] = [p for p in sys.path if p]; "
-            f"from acc_fusion.sumo_background import _child; _child({fd})"
+            f"from acc_fusion.sumo_background import _child; _child({fd}, {ring_fd}, {size})"
         )
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
-        self._proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(fd,), env=env)
-        theirs.close()
+        try:
+            self._ring = _FrameRing(ring_fd, size)
+            self._proc = subprocess.Popen(
+                [sys.executable, "-c", code], pass_fds=(fd, ring_fd), env=env
+            )
+        finally:
+            theirs.close()
+            os.close(ring_fd)
+        self._returned = 0  # the ring's room given back to the child, up to this position
         self._conn = Connection(mine.detach())
         self._closed = False
         try:
@@ -316,14 +452,22 @@ class BackgroundSumoSource(SlotSource):
         return message
 
     def _take(self, message: tuple) -> None:
-        """Take a frame message of :class:`_Snapshots`: fill in the empty slots beyond it."""
-        (_, t, k, packed, ids, done, counts, caught) = message
+        """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring and
+        fill in the empty slots beyond them."""
+        (_, t, k, position, ids, done, counts, caught) = message
         n, n_float, n_flag = self.n_pairs, len(_EMPTY_FLOATS), len(_FLAG_ROWS)
-        floats, leader_id = self._empty_floats.copy(), np.full(n, -1, dtype=np.int64)
+        nbytes = _frame_bytes(k)
+        packed = self._ring.view(position, nbytes)
+        floats_end = 8 * n_float * k
+        leaders_end = floats_end + 8 * k
+        floats, leader_id = np.empty((n_float, n)), np.empty(n, dtype=np.int64)
         flags = np.zeros((n_flag, n), dtype=bool)
-        floats[:, :k] = np.frombuffer(packed, float, n_float * k).reshape(n_float, k)
-        leader_id[:k] = np.frombuffer(packed, np.int64, k, offset=8 * n_float * k)
-        flags[:, :k] = np.frombuffer(packed, bool, offset=8 * (n_float + 1) * k).reshape(n_flag, k)
+        floats[:, :k] = packed[:floats_end].view(float).reshape(n_float, k)
+        floats[:, k:] = self._empty_floats[:, k:]
+        leader_id[:k] = packed[floats_end:leaders_end].view(np.int64)
+        leader_id[k:] = -1
+        flags[:, :k] = packed[leaders_end : leaders_end + n_flag * k].view(bool).reshape(n_flag, k)
+        self._give_back(position + nbytes)
         *values, self._collision_speed = floats
         self._frame = TruthFrame.from_arrays(t, *values[:5], leader_id, lateral_offset=values[5])
         self._active, self._reassigned, self._collided, self._inattentive = flags
@@ -334,6 +478,17 @@ class BackgroundSumoSource(SlotSource):
             setattr(self, name, value)
         for category, text in caught:
             warnings.warn(text, category, stacklevel=3)
+
+    def _give_back(self, position: int) -> None:
+        """Return the ring's room up to ``position`` (the frames before it are copied), an
+        eighth of the ring at a time.  A child that is gone is reported by the next
+        receive."""
+        if position - self._returned >= self._ring.size // 8:
+            self._returned = position
+            try:
+                self._conn.send(("ack", position))
+            except OSError:
+                pass
 
     # ---------------------------------------------------------------- the source interface
     def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:

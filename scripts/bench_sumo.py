@@ -67,6 +67,7 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     # As SumoSource reads: the compiled reader, else the SWIG functions without libsumo's
     # Python wrappers.
     native = sumo_reader() if reads else None
+    codes = native.Codes() if native is not None else None  # empty: no leader is found
     get_ids, get_speed = libsumo._libsumo.vehicle_getIDList, libsumo._libsumo.vehicle_getSpeed
     get_leader, lookahead = libsumo._libsumo.vehicle_getLeader, config.lookahead
     out = np.empty((3, 4096))
@@ -82,7 +83,7 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
             if native is not None:
                 if len(ids) > out.shape[1]:
                     out = np.empty((3, 2 * len(ids)))
-                native.read(list(ids), lookahead, {}, out[0], out[1], out[2].view(np.int64))
+                native.read(list(ids), lookahead, codes, 1, out[0], out[1], out[2].view(np.int64))
             else:
                 deque(map(get_speed, ids), maxlen=0)
                 deque(map(get_leader, ids, repeat(lookahead)), maxlen=0)

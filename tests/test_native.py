@@ -68,10 +68,32 @@ def test_it_is_compiled_once_into_the_cache_and_raises_libsumos_error(fresh):
     assert native.sumo_reader() is not None and built[0].stat().st_mtime_ns == stamp
     with SumoSource(SumoConfig(str(bundled_nets()["ring"]), end=2.0)):
         speed, dist, code = np.empty(1), np.empty(1), np.empty(1, dtype=np.int64)
+        codes = reader.Codes()
         with pytest.raises(libsumo.TraCIException):
-            reader.read(["no such vehicle"], 100.0, {}, speed, dist, code)
+            reader.read(["no such vehicle"], 100.0, codes, 4, speed, dist, code)
         with pytest.raises(ValueError, match="8-byte buffers"):
-            reader.read(["x", "y"], 100.0, {}, speed, dist, code)
+            reader.read(["x", "y"], 100.0, codes, 4, speed, dist, code)
+        with pytest.raises(TypeError):
+            reader.read(["x"], 100.0, {}, 4, speed, dist, code)  # a dict is not its table
+
+
+@pytest.mark.skipif(not BUILDS_HERE, reason="the compiled reader is built on Linux with c++")
+def test_its_code_table_behaves_as_the_dict_it_replaces():
+    codes, plain = native.sumo_reader().Codes(), {}
+    for table in (codes, plain):
+        table["car.1"], table["truck.22"], table["car.1"] = 3, 7, 5
+        del table["truck.22"]
+        table["bus"] = 9
+    assert len(codes) == len(plain) == 2 and codes["car.1"] == plain["car.1"] == 5
+    assert "bus" in codes and "truck.22" not in codes
+    assert codes.get("bus") == 9 and codes.get("nobody") is None and codes.get("nobody", -1) == -1
+    assert codes.pop("bus") == 9 and codes.pop("bus", None) is None and len(codes) == 1
+    with pytest.raises(KeyError, match="truck.22"):
+        codes["truck.22"]
+    with pytest.raises(KeyError, match="nobody"):
+        del codes["nobody"]
+    with pytest.raises(TypeError):
+        codes[3] = 1  # ids are strings
 
 
 def test_without_a_compiler_it_warns_once_and_the_source_reads_through_libsumo(fresh, monkeypatch):

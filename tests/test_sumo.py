@@ -7,12 +7,14 @@ the same frames step for step, open loop only, errors, warnings, a script withou
 from __future__ import annotations
 
 import os
+import select
 import signal
 import socket
 import subprocess
 import sys
 import textwrap
 import threading
+import time
 from dataclasses import replace
 from multiprocessing.connection import Connection
 
@@ -23,6 +25,7 @@ libsumo = pytest.importorskip("libsumo")
 
 import acc_fusion.fcw as fcw  # noqa: E402
 import acc_fusion.sumo as sumo_mod  # noqa: E402
+import acc_fusion.sumo_background as background_mod  # noqa: E402
 from acc_fusion.errors import ConfigError  # noqa: E402
 from acc_fusion.fcw import SimConfig, simulate  # noqa: E402
 from acc_fusion.slots import Extent  # noqa: E402
@@ -515,7 +518,42 @@ def test_the_childs_outbox_never_waits_below_its_limit_and_keeps_the_order():
     assert outbox._queued == 0 and os.get_blocking(child_end.fileno())
 
 
-def test_a_dead_child_is_a_clear_error(road):
+def test_the_childs_outbox_writes_frames_in_batches_or_at_once_when_told():
+    parent_end, child_end = socket.socketpair()
+    outbox = _Outbox(child_end.fileno(), limit=64 << 20)
+    readable = lambda: bool(select.select([parent_end], [], [], 0.05)[0])  # noqa: E731
+    for k in range(background_mod.OUTBOX_BATCH - 1):
+        outbox.put(("frame", k))
+    assert not readable()  # a waiting parent is not woken per frame
+    outbox.put(("frame", "last of the batch"))
+    assert readable()
+    reader = Connection(parent_end.detach())
+    assert [reader.recv()[1] for _ in range(background_mod.OUTBOX_BATCH)][-1] == "last of the batch"
+    outbox.put(("meta",), now=True)
+    assert reader.recv() == ("meta",)
+
+
+def test_a_full_ring_makes_the_child_wait_and_the_frames_stay_exact(waves, monkeypatch):
+    """The smallest ring (16 frames of every slot): the child, far ahead of a parent that
+    dawdles, waits for the room the parent gives back, and the ring wraps many times; the
+    frames are still those of the in-process source."""
+    monkeypatch.setattr(background_mod, "RING_BYTES", 0)  # the parent passes its size on
+    cfg = SumoConfig(waves, capacity=64, hazard_rate=200.0, inattentive=0.5, seed=5)
+    with SumoSource(cfg) as src:
+        inline = trace(src)
+    with BackgroundSumoSource(cfg) as src:
+        assert src._ring.size == 16 * background_mod._frame_bytes(64)
+        time.sleep(0.5)  # the child fills the ring and waits
+        background = trace(src)
+        assert src._returned > 20 * src._ring.size
+    for a, b in zip(inline, background, strict=True):
+        assert a[0] == b[0] and a[5] == b[5] and a[6] == b[6]
+        for x, y in zip(a[1:5], b[1:5], strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_a_dead_child_is_a_clear_error(road, tmp_path, monkeypatch):
+    monkeypatch.setenv("TMPDIR", str(tmp_path))  # the child's temporary directory
     src = BackgroundSumoSource(config(road, end=600.0))
     os.kill(src.pid, signal.SIGINT)  # Ctrl-C is the parent's: the child carries on
     for _ in range(30):
@@ -526,6 +564,7 @@ def test_a_dead_child_is_a_clear_error(road):
         while True:  # the frames already in the socket come first
             src.advance()
     assert src.closed
+    assert not any(tmp_path.iterdir())  # a killed child leaves no files behind
 
 
 def test_warnings_are_forwarded_and_sources_run_side_by_side(road):
