@@ -530,17 +530,14 @@ class FederatedFilter(Estimator):
         """
         if not self._confirm:
             return self.initialised.copy()
-        gap = self.master.x[0][:, 0]
         lo, hi = self._coverage
         online = self._t - self._online_at <= self.config.filter.max_coast + 1e-9
-        self._needed |= (
-            online[:, None]
-            & (gap[None] >= lo[:, None])
-            & (gap[None] <= hi[:, None])
-            & ~self._isolation()
-            & self.initialised[None]
-        )
-        return self.initialised & (self._seen | ~self._needed).all(axis=0)
+        out = np.empty(self.n_pairs, dtype=bool)
+        _confirmed(
+            self._needed, self._seen, online, self.master.x[0], lo, hi, self.fdi.isolated,
+            self.initialised, out,
+        )  # fmt: skip
+        return out
 
     def _state(self):
         return self.master.x[0], self.master.p[0]
@@ -757,6 +754,23 @@ def _gather(z_in, r_in, valid, z, r):  # pragma: no cover - compiled
             low[s] = min(low[s], z[s, k, 0])
             positive[s] &= r[s, k, 0, 0] > 0 and r[s, k, 1, 1] > 0
     return finite, low, positive
+
+
+@njit(cache=True)
+def _confirmed(needed, seen, online, x, lo, hi, isolated, initialised, out):  # pragma: no cover
+    """:meth:`FederatedFilter._reported` in one pass: sensor ``s`` of an initialised pair
+    becomes *needed* when it is online, not isolated (``isolated (N, S)``) and the estimated
+    gap ``x[k, 0]`` lies in ``[lo[s], hi[s]]``; ``out[k]``: the pair is initialised and every
+    needed sensor has been seen."""
+    n_sensors, n_pairs = needed.shape
+    for k in range(n_pairs):
+        gap, ok = x[k, 0], initialised[k]
+        confirmed = ok
+        for s in range(n_sensors):
+            if online[s] and gap >= lo[s] and gap <= hi[s] and not isolated[k, s] and ok:
+                needed[s, k] = True
+            confirmed &= seen[s, k] or not needed[s, k]
+        out[k] = confirmed
 
 
 #: Stand-ins for a federated filter without fault detection: its (empty) window arrays and

@@ -55,6 +55,7 @@ Autoreset: gymnasium ``NEXT_STEP`` against Stable-Baselines3
 
 from __future__ import annotations
 
+import sys
 import time
 from typing import Any
 
@@ -64,6 +65,7 @@ import torch
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from stable_baselines3.common.vec_env import VecEnv
 
@@ -348,9 +350,15 @@ def make_ppo(venv, seed: int | None = 0, n_steps: int = 128, verbose: int = 0, *
     kwargs.setdefault(
         "policy_kwargs", {"features_extractor_class": FCWFeatures, "net_arch": [64, 64]}
     )
-    return PPO(
+    model = PPO(
         "MlpPolicy", venv, n_steps=n_steps, seed=seed, device="cpu", verbose=verbose, **kwargs
     )
+    if kwargs.get("tensorboard_log") is None:
+        # SB3's default logger makes an empty directory in the temporary directory per
+        # learn(); the same outputs without it (stdout when verbose).
+        outputs = [HumanOutputFormat(sys.stdout)] if verbose >= 1 else []
+        model.set_logger(Logger(None, outputs))
+    return model
 
 
 def train_ppo(

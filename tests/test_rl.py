@@ -4,6 +4,7 @@ PPO training and the evaluation of the trained policy (issue 5)."""
 from __future__ import annotations
 
 import importlib.util
+import tempfile
 import time
 from pathlib import Path
 
@@ -191,8 +192,10 @@ def test_wall_clock_limit():
 # ------------------------------------------------------------------------------ training
 
 
-def test_training_stopped_by_the_clock_gives_a_model_the_harness_accepts(tmp_path):
+def test_training_stopped_by_the_clock_gives_a_model_the_harness_accepts(tmp_path, monkeypatch):
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # where SB3's default logger writes
     model, stats = train_ppo(timesteps=10_000_000, minutes=0.03, seed=3, num_envs=16, n_steps=32)
+    assert not list(tmp_path.glob("SB3-*"))  # no empty SB3-<date> directory left behind
     assert stats["stopped_by_clock"] and 0 < stats["timesteps"] < 10_000_000
     assert stats["steps_per_s"] > 0
     path = tmp_path / "ppo.zip"
