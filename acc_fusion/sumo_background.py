@@ -124,7 +124,8 @@ class _FrameRing:
         flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
         self.size = size
         self._memory = mmap.mmap(fd, size, flags=flags)
-        self._bytes = np.frombuffer(self._memory, np.uint8)
+        memory = np.frombuffer(self._memory, np.uint8)  # size: a multiple of 8
+        self._views = (memory.view(np.float64), memory.view(np.int64), memory.view(np.bool_))
 
     @staticmethod
     def create(size: int) -> int:
@@ -142,19 +143,70 @@ class _FrameRing:
         offset = position % self.size
         return position if offset + nbytes <= self.size else position + self.size - offset
 
-    def write(self, position: int, rows: tuple[np.ndarray, ...], k: int) -> None:
-        """Write the first ``k`` columns of each of ``rows`` one after the other."""
-        offset = position % self.size
-        for row in rows:
-            part = row[..., :k]
-            end = offset + part.nbytes
-            self._bytes[offset:end].view(part.dtype).reshape(part.shape)[...] = part
-            offset = end
+    def write(self, position: int, frame: tuple[np.ndarray, ...], k: int) -> None:
+        """Write the first ``k`` slots of a frame's arrays (the arguments of :func:`_pack`
+        after ``k``) at ``position``."""
+        _pack(*self._views, position % self.size, k, *frame)
 
-    def view(self, position: int, nbytes: int) -> np.ndarray:
-        """The ``nbytes`` written at ``position`` (a view: copy before returning the room)."""
-        offset = position % self.size
-        return self._bytes[offset : offset + nbytes]
+    def read(self, position: int, k: int, empty: np.ndarray) -> tuple[np.ndarray, ...]:
+        """A copy of the frame of ``k`` slots written at ``position``, its ``(N,)`` arrays
+        filled beyond them with the values of an empty slot (``empty``: the float rows', the
+        flags False and the leader -1): the float rows, the leader ids and the flags."""
+        return _unpack(*self._views, position % self.size, k, empty)
+
+
+@njit(cache=True)
+def _pack(
+    floats,
+    ints,
+    flags,
+    offset,
+    k,
+    block,
+    collision_speed,
+    leader_id,
+    active,
+    reassigned,
+    collided,
+    inattentive,
+):  # pragma: no cover - compiled
+    """Write the first ``k`` slots of a frame at byte ``offset`` (a multiple of 8) of the
+    ring, whose memory ``floats``, ``ints`` and ``flags`` view as float64, int64 and bool:
+    the rows of ``block`` then ``collision_speed`` (the float rows, :data:`_EMPTY_FLOATS`),
+    ``leader_id``, then the flags ``active``, ``reassigned``, ``collided`` and ``inattentive
+    & active`` (:data:`_FLAG_ROWS`), each row after the other (:func:`_frame_bytes`)."""
+    at = offset // 8
+    for row in range(block.shape[0]):
+        floats[at : at + k] = block[row, :k]
+        at += k
+    floats[at : at + k] = collision_speed[:k]
+    ints[at + k : at + 2 * k] = leader_id[:k]
+    at = 8 * (at + 2 * k)
+    flags[at : at + k] = active[:k]
+    flags[at + k : at + 2 * k] = reassigned[:k]
+    flags[at + 2 * k : at + 3 * k] = collided[:k]
+    flags[at + 3 * k : at + 4 * k] = inattentive[:k] & active[:k]
+
+
+@njit(cache=True)
+def _unpack(floats, ints, flags, offset, k, empty):  # pragma: no cover - compiled
+    """The ``(F, N)`` float rows, ``(N,)`` leader ids and ``(4, N)`` flags of a frame that
+    :func:`_pack` wrote at ``offset`` for its first ``k`` slots, copied out of the ring; the
+    slots beyond hold an empty slot's values (``empty``: ``(F, N)`` float rows)."""
+    n_float, n = empty.shape
+    values = empty.copy()
+    leader_id = np.full(n, -1, dtype=np.int64)
+    slot_flags = np.zeros((4, n), dtype=np.bool_)
+    at = offset // 8
+    for row in range(n_float):
+        values[row, :k] = floats[at : at + k]
+        at += k
+    leader_id[:k] = ints[at : at + k]
+    at = 8 * (at + k)
+    for row in range(4):
+        slot_flags[row, :k] = flags[at : at + k]
+        at += k
+    return values, leader_id, slot_flags
 
 
 class _RingWriter:
@@ -166,13 +218,14 @@ class _RingWriter:
         self._ring, self._conn, self._outbox = ring, conn, outbox
         self._head = self._returned = 0
 
-    def write(self, rows: tuple[np.ndarray, ...], k: int) -> int:
-        """Write a frame's rows (cut after ``k`` slots); returns its position."""
+    def write(self, frame: tuple[np.ndarray, ...], k: int) -> int:
+        """Write a frame's arrays (:meth:`_FrameRing.write`, cut after ``k`` slots); returns
+        its position."""
         nbytes = _frame_bytes(k)
         start = self._ring.place(self._head, nbytes)
         while start + nbytes - self._returned > self._ring.size:
             self._await_room()
-        self._ring.write(start, rows, k)
+        self._ring.write(start, frame, k)
         self._head = start + nbytes
         return start
 
@@ -210,7 +263,7 @@ class _Snapshots:
         """The message of ``src``'s current step, with the warnings ``caught`` during it,
         its arrays written into the ring from the source's own (no copies): the frame's
         block of float rows (:func:`acc_fusion.sumo._frame_arrays`) and the slot flags."""
-        frame, active = src.frame(), src.active
+        frame, active = src.frame(), src._active  # replaced, never changed in place
         reassigned, collided = src._reassigned, src._collided
         k, candidates = _extent(active, reassigned, collided, self._was_active)
         ids, known = src._slot_vid, self._known
@@ -219,8 +272,8 @@ class _Snapshots:
             if ids[i] != known[i]:
                 changed[i] = known[i] = ids[i]
         self._was_active = active
-        rows = (src._block, src._collision_speed, frame.leader_id, active, reassigned, collided)
-        position = self._ring.write((*rows, src._inattentive & active), k)
+        arrays = (src._block, src._collision_speed, frame.leader_id, active, reassigned, collided)
+        position = self._ring.write((*arrays, src._inattentive), k)
         return (
             "frame",
             frame.t,
@@ -455,19 +508,8 @@ class BackgroundSumoSource(SlotSource):
         """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring and
         fill in the empty slots beyond them."""
         (_, t, k, position, ids, done, counts, caught) = message
-        n, n_float, n_flag = self.n_pairs, len(_EMPTY_FLOATS), len(_FLAG_ROWS)
-        nbytes = _frame_bytes(k)
-        packed = self._ring.view(position, nbytes)
-        floats_end = 8 * n_float * k
-        leaders_end = floats_end + 8 * k
-        floats, leader_id = np.empty((n_float, n)), np.empty(n, dtype=np.int64)
-        flags = np.zeros((n_flag, n), dtype=bool)
-        floats[:, :k] = packed[:floats_end].view(float).reshape(n_float, k)
-        floats[:, k:] = self._empty_floats[:, k:]
-        leader_id[:k] = packed[floats_end:leaders_end].view(np.int64)
-        leader_id[k:] = -1
-        flags[:, :k] = packed[leaders_end : leaders_end + n_flag * k].view(bool).reshape(n_flag, k)
-        self._give_back(position + nbytes)
+        floats, leader_id, flags = self._ring.read(position, k, self._empty_floats)
+        self._give_back(position + _frame_bytes(k))
         *values, self._collision_speed = floats
         self._frame = TruthFrame.from_arrays(t, *values[:5], leader_id, lateral_offset=values[5])
         self._active, self._reassigned, self._collided, self._inattentive = flags

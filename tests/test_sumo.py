@@ -533,6 +533,26 @@ def test_the_childs_outbox_writes_frames_in_batches_or_at_once_when_told():
     assert reader.recv() == ("meta",)
 
 
+def test_a_frame_written_into_the_ring_reads_back_with_empty_slots_beyond_its_extent():
+    n, k = 16, 5
+    rng = np.random.default_rng(0)
+    block, collision_speed = rng.normal(size=(6, n)), rng.normal(size=n)
+    leader_id = rng.integers(-1, 100, n)
+    active, reassigned, collided, inattentive = rng.random((4, n)) < 0.5
+    size = 4 * background_mod._frame_bytes(n)
+    ring = background_mod._FrameRing(background_mod._FrameRing.create(size), size)
+    empty = np.array(background_mod._EMPTY_FLOATS)[:, None].repeat(n, axis=1)
+    position = ring.place(size + 8, background_mod._frame_bytes(k))  # past a wrap
+    frame = (block, collision_speed, leader_id, active, reassigned, collided, inattentive)
+    ring.write(position, frame, k)
+    floats, leaders, flags = ring.read(position, k, empty)
+    np.testing.assert_array_equal(floats[:, :k], np.vstack([block, collision_speed])[:, :k])
+    np.testing.assert_array_equal(floats[:, k:], empty[:, k:])
+    np.testing.assert_array_equal(leaders, np.where(np.arange(n) < k, leader_id, -1))
+    expected = np.vstack([active, reassigned, collided, inattentive & active])
+    np.testing.assert_array_equal(flags, np.where(np.arange(n) < k, expected, False))
+
+
 def test_a_full_ring_makes_the_child_wait_and_the_frames_stay_exact(waves, monkeypatch):
     """The smallest ring (16 frames of every slot): the child, far ahead of a parent that
     dawdles, waits for the room the parent gives back, and the ring wraps many times; the
