@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numba import njit
 from tqdm.auto import tqdm
 
 from acc_fusion.driver import Driver, DriverConfig
@@ -279,15 +280,16 @@ class Perception(PairState):
         v_ego, bias = self.ego.step(accel, wheel)
         self._accel_now = accel - bias
         has = frame.has_leader & active
+        rate = np.where(has, frame.range_rate, 0.0)
         oracle = self.oracle.step(
             np.where(has, frame.gap, 0.0),
             frame.ego_speed,
-            np.where(has, frame.range_rate, 0.0),
+            rate,
             np.where(has, frame.lead_accel, 0.0),
             valid=has,
         )
         # True TTC (constant speeds, as the test protocols define it); inf without a leader.
-        ttc = time_to_collision(np.where(has, frame.gap, 1.0), np.where(has, frame.range_rate, 0.0))
+        ttc = time_to_collision(np.where(has, frame.gap, 1.0), rate)
         ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
         return Perceived(frame, meas, v_ego, ests, oracle, ttc)
 
@@ -300,14 +302,23 @@ def warning_inputs(p: Perceived, method: str, active: np.ndarray) -> dict[str, n
     """The arguments of :meth:`WarningLogic.step` for ``method``'s estimate."""
     est = p.estimates[method]
     ok = est.valid & active
-    return {
-        "gap": np.where(ok, est.gap, 0.0),
-        "v_ego": p.v_ego,
-        "v_rel": np.where(ok, est.x[:, 1], 0.0),
-        "a_lead": np.where(ok, est.x[:, 2], 0.0),
-        "gap_std": np.where(ok, est.gap_std, 0.0),
-        "valid": ok,
-    }
+    gap, v_rel, a_lead, gap_std = np.empty((4, ok.size))
+    _track_inputs(ok, est.x, est.p, gap, v_rel, a_lead, gap_std)
+    return {"gap": gap, "v_ego": p.v_ego, "v_rel": v_rel, "a_lead": a_lead, "gap_std": gap_std,
+            "valid": ok}  # fmt: skip
+
+
+@njit(cache=True)
+def _track_inputs(ok, x, p, gap, v_rel, a_lead, gap_std):  # pragma: no cover - compiled
+    r"""Where ``ok (N,)``: the columns of the estimates ``x (N, 3)`` (``gap``, ``v_rel``,
+    ``a_lead``) and the gap's standard deviation :math:`\sqrt{P_{00}}` of ``p (N, 3, 3)``
+    (``gap_std``); 0 elsewhere (outputs ``(N,)``)."""
+    for i in range(ok.size):
+        if ok[i]:
+            gap[i], v_rel[i], a_lead[i] = x[i, 0], x[i, 1], x[i, 2]
+            gap_std[i] = np.sqrt(p[i, 0, 0])
+        else:
+            gap[i] = v_rel[i] = a_lead[i] = gap_std[i] = 0.0
 
 
 def simulate(

@@ -284,12 +284,9 @@ class Estimator(PairState, ABC):
             ego_accel = check_array("ego_accel", ego_accel, (self.n_pairs,))
         self._u = ego_accel
         t = float(measurements[0].t)
-        lost = self.initialised & (
-            (target_id != self._target) | (t - self._last > self.config.filter.max_coast + 1e-9)
-        )
-        self._target = target_id
-        if lost.any():
-            self.initialised &= ~lost
+        lost = np.empty(self.n_pairs, dtype=bool)
+        limit = self.config.filter.max_coast + 1e-9
+        if _lose(self.initialised, self._target, target_id, self._last, t, limit, lost):
             self._drop(lost)
         self._nis[:] = np.nan
         self._t = t
@@ -317,33 +314,38 @@ class Estimator(PairState, ABC):
             raise InputError(
                 f"target_id must be an integer array of shape ({n},), got {target_id.shape}"
             )
+        valid = np.empty((s, n), dtype=bool)
+        z, r = np.empty((s, n, 2)), np.empty((s, n, 2, 2))
+        finite, low, positive = [], [], []
         for i, m in enumerate(measurements):
             if np.shape(m.z) != (n, 2) or np.shape(m.r) != (n, 2, 2) or np.shape(m.valid) != (n,):
                 raise InputError(
                     f"{self._name(i)} must have z (N, 2), r (N, 2, 2), valid (N,) with N = {n}, "
                     f"got {np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
                 )
-        valid = np.array([m.valid for m in measurements], dtype=bool)
-        z, r = np.empty((s, n, 2)), np.empty((s, n, 2, 2))
-        z_all = np.array([m.z for m in measurements], dtype=float)
-        r_all = np.array([m.r for m in measurements], dtype=float)
-        finite, low, positive = _gather(z_all, r_all, valid, z, r)
-        if not finite.all():
+            ok, lowest, pos = _gather(
+                np.asarray(m.z, dtype=float), np.asarray(m.r, dtype=float),
+                np.asarray(m.valid, dtype=bool), z[i], r[i], valid[i],
+            )  # fmt: skip
+            finite.append(ok)
+            low.append(lowest)
+            positive.append(pos)
+        if not all(finite):
             raise InputError(
-                f"{self._name(np.argmin(finite))} has NaN or inf in a valid measurement or its "
+                f"{self._name(finite.index(False))} has NaN or inf in a valid measurement or its "
                 "covariance"
             )
-        if (low < 0).any():
-            i = int(np.argmin(low))
+        if min(low) < 0:
+            i = low.index(min(low))
             raise InputError(
                 f"{self._name(i)} has a negative range ({low[i]:g} m); ranges must be >= 0"
             )
-        if not positive.all():
+        if not all(positive):
             raise InputError(
-                f"{self._name(np.argmin(positive))} has a non-positive measurement variance; it "
+                f"{self._name(positive.index(False))} has a non-positive measurement variance; it "
                 "must be > 0"
             )
-        return z, r, valid, target_id.astype(np.int64)
+        return z, r, valid, target_id.astype(np.int64, copy=False)
 
     def _name(self, i: int) -> str:
         """How an error names measurement ``i``."""
@@ -531,10 +533,10 @@ class FederatedFilter(Estimator):
         if not self._confirm:
             return self.initialised.copy()
         lo, hi = self._coverage
-        online = self._t - self._online_at <= self.config.filter.max_coast + 1e-9
         out = np.empty(self.n_pairs, dtype=bool)
         _confirmed(
-            self._needed, self._seen, online, self.master.x[0], lo, hi, self.fdi.isolated,
+            self._needed, self._seen, self._online_at, self._t,
+            self.config.filter.max_coast + 1e-9, self.master.x[0], lo, hi, self.fdi.isolated,
             self.initialised, out,
         )  # fmt: skip
         return out
@@ -731,38 +733,56 @@ class SteadyStateFilter(Estimator):
 
 
 @njit(cache=True)
-def _gather(z_in, r_in, valid, z, r):  # pragma: no cover - compiled
-    """The valid measurements ``z (S, N, 2)`` and covariances ``r (S, N, 2, 2)`` of every
-    sensor, zero and identity where not valid, in one pass; returns per sensor whether every
-    value is finite, the lowest range (0 without a valid one) and whether every variance is
-    positive."""
-    n_sensors, n_pairs = valid.shape
-    finite = np.ones(n_sensors, dtype=np.bool_)
-    low = np.zeros(n_sensors)
-    positive = np.ones(n_sensors, dtype=np.bool_)
-    for s in range(n_sensors):
-        for k in range(n_pairs):
-            ok = valid[s, k]
-            for a in range(2):
-                v = z_in[s, k, a] if ok else 0.0
-                z[s, k, a] = v
-                finite[s] &= np.isfinite(v)
-                for b in range(2):
-                    w = r_in[s, k, a, b] if ok else (1.0 if a == b else 0.0)
-                    r[s, k, a, b] = w
-                    finite[s] &= np.isfinite(w)
-            low[s] = min(low[s], z[s, k, 0])
-            positive[s] &= r[s, k, 0, 0] > 0 and r[s, k, 1, 1] > 0
+def _gather(z_in, r_in, valid_in, z, r, valid):  # pragma: no cover - compiled
+    """One sensor's valid measurements ``z (N, 2)`` and covariances ``r (N, 2, 2)`` from its
+    ``z_in``, ``r_in`` and ``valid_in (N,)`` (copied to ``valid``), zero and identity where
+    not valid, in one pass; returns whether every value is finite, the lowest range (0
+    without a valid one) and whether every variance is positive."""
+    finite, low, positive = True, 0.0, True
+    for k in range(valid.size):
+        ok = valid_in[k]
+        valid[k] = ok
+        for a in range(2):
+            v = z_in[k, a] if ok else 0.0
+            z[k, a] = v
+            finite &= np.isfinite(v)
+            for b in range(2):
+                w = r_in[k, a, b] if ok else (1.0 if a == b else 0.0)
+                r[k, a, b] = w
+                finite &= np.isfinite(w)
+        low = min(low, z[k, 0])
+        positive &= r[k, 0, 0] > 0 and r[k, 1, 1] > 0
     return finite, low, positive
 
 
 @njit(cache=True)
-def _confirmed(needed, seen, online, x, lo, hi, isolated, initialised, out):  # pragma: no cover
+def _lose(initialised, target, target_id, last, t, coast_limit, lost):  # pragma: no cover
+    """The tracks lost at time ``t``: ``lost (N,)`` receives the initialised pairs whose target
+    id changed (``target`` takes ``target_id``, in place) or whose last measurement, at
+    ``last``, is more than ``coast_limit`` old; they are no longer ``initialised``.  Returns
+    whether any was lost."""
+    any_lost = False
+    for k in range(lost.size):
+        lost[k] = initialised[k] and (target_id[k] != target[k] or t - last[k] > coast_limit)
+        target[k] = target_id[k]
+        initialised[k] = initialised[k] and not lost[k]
+        any_lost = any_lost or lost[k]
+    return any_lost
+
+
+@njit(cache=True)
+def _confirmed(
+    needed, seen, online_at, t, coast_limit, x, lo, hi, isolated, initialised, out
+):  # pragma: no cover - compiled
     """:meth:`FederatedFilter._reported` in one pass: sensor ``s`` of an initialised pair
-    becomes *needed* when it is online, not isolated (``isolated (N, S)``) and the estimated
-    gap ``x[k, 0]`` lies in ``[lo[s], hi[s]]``; ``out[k]``: the pair is initialised and every
+    becomes *needed* when it is online (it delivered a frame at ``online_at[s]``, at most
+    ``coast_limit`` before ``t``), not isolated (``isolated (N, S)``) and the estimated gap
+    ``x[k, 0]`` lies in ``[lo[s], hi[s]]``; ``out[k]``: the pair is initialised and every
     needed sensor has been seen."""
     n_sensors, n_pairs = needed.shape
+    online = np.empty(n_sensors, dtype=np.bool_)
+    for s in range(n_sensors):
+        online[s] = t - online_at[s] <= coast_limit
     for k in range(n_pairs):
         gap, ok = x[k, 0], initialised[k]
         confirmed = ok
