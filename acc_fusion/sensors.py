@@ -428,28 +428,29 @@ class Sensor(PairState):
         # numpy, unless every offset is zero (the kernel then uses the exact atan2(0, gap)).
         lat = frame.lateral_offset
         bearing = np.arctan2(lat, frame.gap) if np.count_nonzero(lat) else None
-        clean, noise = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, n))
-        seen, seen_ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        _observe(
-            frame.gap, frame.leader_id, frame.ego_speed, frame.lead_speed, bearing,
-            self._ghost_range, self._ghost_life, detect_u, e, self._observe_params,
-            clean, noise, seen, seen_ghost,
-        )  # fmt: skip
-        active = [f for f in self.faults if f.active(frame.t)]
-        if active:
-            clean_report = Report(clean.T, seen, seen_ghost)
-            held = Report(self._held_z.T, self._held_valid, self._held_ghost)
-            out = apply_faults(
-                active, frame.t, clean_report, noise.T, held, self._rng_fault, self._capacity
-            )
-        else:
-            out = Report((clean + noise).T, seen, seen_ghost)
+        truth = (frame.gap, frame.leader_id, frame.ego_speed, frame.lead_speed, bearing)
+        ghosts = (self._ghost_range, self._ghost_life)
+        held = (self._held_z, self._held_valid, self._held_ghost)
         z, r = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, MEAS_DIM, n))
         valid, ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        _emit(
-            out.z.T, out.valid, out.ghost, self._held_z, self._held_valid, self._held_ghost,
-            self._emit_params, z, r, valid, ghost,
-        )  # fmt: skip
+        active = [f for f in self.faults if f.active(frame.t)]
+        if active:
+            clean, noise = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, n))
+            seen, seen_ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+            _observe(
+                *truth, *ghosts, detect_u, e, self._observe_params, clean, noise, seen, seen_ghost
+            )
+            out = apply_faults(
+                active, frame.t, Report(clean.T, seen, seen_ghost), noise.T,
+                Report(self._held_z.T, self._held_valid, self._held_ghost), self._rng_fault,
+                self._capacity,
+            )  # fmt: skip
+            _emit(out.z.T, out.valid, out.ghost, *held, self._emit_params, z, r, valid, ghost)
+        else:  # no fault acts between the two kernels: both in one pass
+            _observe_emit(
+                *truth, *ghosts, detect_u, e, self._observe_params, *held, self._emit_params,
+                z, r, valid, ghost,
+            )  # fmt: skip
         online = not any(f.kind == "dropout" for f in active)
         return Measurement(frame.t, self.spec.name, z.T, r.transpose(2, 0, 1), valid, ghost, online)
 
@@ -524,6 +525,11 @@ def _warmup() -> None:
     for bearing in (None, x):
         _observe(x, ids, x, x, bearing, x, x, x, pair, (0.0,) * 7, pair, pair, flag, flag)
     _emit(pair, flag, flag, pair, flag, flag, (0.0,) * 3, pair, cov, flag, flag)
+    for bearing in (None, x):
+        _observe_emit(
+            x, ids, x, x, bearing, x, x, x, pair, (0.0,) * 7, pair, flag, flag, (0.0,) * 3, pair,
+            cov, flag, flag,
+        )  # fmt: skip
 
 
 @njit(cache=True)
@@ -551,46 +557,74 @@ def _observe(
     gap, leader_id, ego_speed, lead_speed, bearing, ghost_range, ghost_life, u, e, params,
     clean, noise, seen, ghost,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """What the sensor sees of each pair, before faults (the model of the module docstring).
+    """What the sensor sees of each pair, before faults (:func:`_observe_one` of every pair).
+
+    Writes ``clean (2, N)`` the true [range, range-rate] of the reported object, ``noise
+    (2, N)`` the scaled noise, ``seen (N,)`` visible and detected, ``ghost (N,)`` the reported
+    object is a ghost.
+    """
+    for i in range(gap.size):
+        clean[0, i], clean[1, i], noise[0, i], noise[1, i], seen[i], ghost[i] = _observe_one(
+            i, gap, leader_id, ego_speed, lead_speed, bearing, ghost_range, ghost_life, u, e,
+            params,
+        )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _observe_one(
+    i, gap, leader_id, ego_speed, lead_speed, bearing, ghost_range, ghost_life, u, e, params
+):  # pragma: no cover - compiled
+    """What the sensor sees of pair ``i``, before faults (the model of the module docstring).
 
     The target is visible with a leader, ``min_range <= gap <= max_range`` and
     ``|bearing| <= half_fov`` (``bearing`` ``None``: every lateral offset is zero, the bearing
     is ``atan2(0, gap)``); a live ghost in the range limits is reported instead unless the
     visible target is closer.  A visible return is detected when ``u < detection_prob``.
-    Writes ``clean (2, N)`` the true [range, range-rate] of the reported object, ``noise
-    (2, N)`` the draw ``e`` scaled by ``[range_noise_std(true range), range_rate_std]``,
-    ``seen (N,)`` visible and detected, ``ghost (N,)`` the reported object is a ghost.
+    Returns the true range and range-rate of the reported object, the draws ``e[:, i]``
+    scaled by ``[range_noise_std(true range), range_rate_std]``, whether the object is seen
+    (visible and detected) and whether it is a ghost.
     """
     min_range, max_range, half_fov, detection_prob, range_std, quadratic, rate_std = params
-    for i in range(gap.size):
-        g = gap[i]
-        target = leader_id[i] >= 0 and g >= min_range and g <= max_range
-        if target:
-            if bearing is not None:
-                b = bearing[i]
-            else:  # atan2(0, g) is 0 for g > 0; g = +-0 gives 0 or pi
-                b = 0.0 if g > 0.0 else np.arctan2(0.0, g)
-            target = abs(b) <= half_fov
-        gr = ghost_range[i]
-        in_view = ghost_life[i] > 0 and gr >= min_range and gr <= max_range
-        use_ghost = in_view and not (target and g <= gr)
-        if use_ghost:
-            true_range, true_rate = gr, -ego_speed[i]
-        else:
-            true_range, true_rate = g, lead_speed[i] - ego_speed[i]
-        clean[0, i] = true_range
-        clean[1, i] = true_rate
-        noise[0, i] = e[0, i] * (range_std + quadratic * true_range * true_range)
-        noise[1, i] = e[1, i] * rate_std
-        seen[i] = (target or use_ghost) and u[i] < detection_prob
-        ghost[i] = use_ghost
+    g = gap[i]
+    target = leader_id[i] >= 0 and g >= min_range and g <= max_range
+    if target:
+        if bearing is not None:
+            b = bearing[i]
+        else:  # atan2(0, g) is 0 for g > 0; g = +-0 gives 0 or pi
+            b = 0.0 if g > 0.0 else np.arctan2(0.0, g)
+        target = abs(b) <= half_fov
+    gr = ghost_range[i]
+    in_view = ghost_life[i] > 0 and gr >= min_range and gr <= max_range
+    use_ghost = in_view and not (target and g <= gr)
+    if use_ghost:
+        true_range, true_rate = gr, -ego_speed[i]
+    else:
+        true_range, true_rate = g, lead_speed[i] - ego_speed[i]
+    noise_range = e[0, i] * (range_std + quadratic * true_range * true_range)
+    noise_rate = e[1, i] * rate_std
+    seen = (target or use_ghost) and u[i] < detection_prob
+    return true_range, true_rate, noise_range, noise_rate, seen, use_ghost
 
 
 @njit(cache=True)
 def _emit(
     out_z, out_valid, out_ghost, held_z, held_valid, held_ghost, params, z, r, valid, ghost
 ):  # pragma: no cover - compiled
-    """Turn the (faulted) report ``out_*`` into the measurement; remember what was output.
+    """Turn the (faulted) report ``out_*`` (``out_z (2, N)``) into the measurement
+    (:func:`_emit_one` of every pair)."""
+    for i in range(valid.size):
+        _emit_one(
+            i, out_z[0, i], out_z[1, i], out_valid[i], out_ghost[i], held_z, held_valid,
+            held_ghost, params, z, r, valid, ghost,
+        )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _emit_one(
+    i, out_range, out_rate, out_valid, out_ghost, held_z, held_valid, held_ghost, params, z, r,
+    valid, ghost,
+):  # pragma: no cover - compiled  # fmt: skip
+    """Turn pair ``i``'s report into its measurement; remember what was output.
 
     Where ``out_valid``: ``held_*`` takes the report (in place), ``z (2, N)`` is the report
     with the range clipped at 0 (a range sensor cannot report a negative range; as with
@@ -599,29 +633,44 @@ def _emit(
     the identity.  ``valid`` and ``ghost (N,)`` are the output flags.
     """
     range_std, quadratic, rate_var = params
-    for i in range(valid.size):
-        v = out_valid[i]
-        if v:
-            held_z[0, i] = out_z[0, i]
-            held_z[1, i] = out_z[1, i]
-            held_valid[i] = True
-            held_ghost[i] = out_ghost[i]
-            dist = out_z[0, i]
-            dist = 0.0 if dist <= 0.0 else dist
-            std = range_std + quadratic * dist * dist
-            z[0, i] = dist
-            z[1, i] = out_z[1, i]
-            r[0, 0, i] = std * std
-            r[1, 1, i] = rate_var
-        else:
-            z[0, i] = np.nan
-            z[1, i] = np.nan
-            r[0, 0, i] = 1.0
-            r[1, 1, i] = 1.0
-        r[0, 1, i] = 0.0
-        r[1, 0, i] = 0.0
-        valid[i] = v
-        ghost[i] = v and out_ghost[i]
+    if out_valid:
+        held_z[0, i] = out_range
+        held_z[1, i] = out_rate
+        held_valid[i] = True
+        held_ghost[i] = out_ghost
+        dist = 0.0 if out_range <= 0.0 else out_range
+        std = range_std + quadratic * dist * dist
+        z[0, i] = dist
+        z[1, i] = out_rate
+        r[0, 0, i] = std * std
+        r[1, 1, i] = rate_var
+    else:
+        z[0, i] = np.nan
+        z[1, i] = np.nan
+        r[0, 0, i] = 1.0
+        r[1, 1, i] = 1.0
+    r[0, 1, i] = 0.0
+    r[1, 0, i] = 0.0
+    valid[i] = out_valid
+    ghost[i] = out_valid and out_ghost
+
+
+@njit(cache=True)
+def _observe_emit(
+    gap, leader_id, ego_speed, lead_speed, bearing, ghost_range, ghost_life, u, e,
+    observe_params, held_z, held_valid, held_ghost, emit_params, z, r, valid, ghost,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_observe` then :func:`_emit` of the unfaulted report (clean value plus noise),
+    pair by pair in one pass."""
+    for i in range(gap.size):
+        true_range, true_rate, noise_range, noise_rate, seen, use_ghost = _observe_one(
+            i, gap, leader_id, ego_speed, lead_speed, bearing, ghost_range, ghost_life, u, e,
+            observe_params,
+        )  # fmt: skip
+        _emit_one(
+            i, true_range + noise_range, true_rate + noise_rate, seen, use_ghost, held_z,
+            held_valid, held_ghost, emit_params, z, r, valid, ghost,
+        )  # fmt: skip
 
 
 class RadarSensor(Sensor):

@@ -88,3 +88,23 @@ def test_simulation_is_deterministic_for_a_seed():
 def test_bad_config_is_one_clear_error(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         SimConfig(**kwargs)
+
+
+def test_track_inputs_kernel_matches_its_numpy_form():
+    from acc_fusion.fcw import _track_inputs
+
+    rng = np.random.default_rng(0)
+    n = 100
+    ok = rng.random(n) < 0.5
+    x = rng.normal(size=(n, 3))
+    p = rng.uniform(0.0, 4.0, (n, 3, 3))
+    p[~ok, 0, 0] = np.nan
+    out = np.empty((4, n))
+    _track_inputs(ok, x, p, *out)
+    expected = [
+        np.where(ok, x[:, 0], 0.0),
+        np.where(ok, x[:, 1], 0.0),
+        np.where(ok, x[:, 2], 0.0),
+        np.where(ok, np.sqrt(np.where(ok, p[:, 0, 0], 0.0)), 0.0),
+    ]
+    assert np.array_equal(out, np.array(expected))

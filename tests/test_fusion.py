@@ -107,3 +107,19 @@ def test_fdi_rarely_isolates_a_healthy_sensor():
     _, tr = run_methods({"fed": FusionConfig(filter=LG_FILTER)}, n=300, steps=100, seed=8)
     frac = np.mean([e.isolated[e.valid].mean() for e in tr["fed"] if e.valid.any()])
     assert frac < 0.02
+
+
+def test_lose_kernel_matches_its_numpy_form():
+    from acc_fusion.fusion import _lose
+
+    rng = np.random.default_rng(0)
+    n, t, limit = 200, 5.0, 1.0 + 1e-9
+    initialised = rng.random(n) < 0.7
+    target, target_id = rng.integers(0, 3, n), rng.integers(0, 3, n)
+    last = t - rng.uniform(0.0, 2.0, n)
+    expected = initialised & ((target_id != target) | (t - last > limit))
+    lost = np.empty(n, dtype=bool)
+    assert _lose(initialised, target, target_id, last, t, limit, lost) == expected.any()
+    assert np.array_equal(lost, expected)
+    assert np.array_equal(initialised, initialised & ~expected)
+    assert np.array_equal(target, target_id)

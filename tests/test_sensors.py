@@ -444,3 +444,35 @@ def test_measure_is_vectorised_over_pairs():
         radar.measure(f)
     per_call = (time.perf_counter() - start) / len(frames)
     assert per_call < 0.01  # about 1 ms here; a Python loop over 10k pairs takes far longer
+
+
+@pytest.mark.parametrize("lateral", [False, True])
+def test_one_pass_kernel_equals_observe_then_emit(lateral):
+    from acc_fusion.sensors import _emit, _observe, _observe_emit
+
+    rng = np.random.default_rng(1)
+    n = 300
+    gap = rng.uniform(-5.0, 200.0, n)
+    leader = np.where(rng.random(n) < 0.8, 1, -1)
+    ego, lead = rng.uniform(0.0, 30.0, n), rng.uniform(0.0, 30.0, n)
+    bearing = rng.normal(0.0, 0.5, n) if lateral else None
+    ghost_range, ghost_life = rng.uniform(0.0, 150.0, n), rng.uniform(-1.0, 1.0, n)
+    u, e = rng.random(n), rng.standard_normal((2, n))
+    spec = radar_spec()
+    observe_params = (
+        spec.min_range, spec.max_range, math.radians(spec.fov_deg) / 2, spec.detection_prob,
+        spec.range_std, spec.range_std_quadratic, spec.range_rate_std,
+    )  # fmt: skip
+    emit_params = (spec.range_std, spec.range_std_quadratic, spec.range_rate_std**2)
+    truth = (gap, leader, ego, lead, bearing, ghost_range, ghost_life, u, e, observe_params)
+    held = [rng.normal(size=(2, n)), rng.random(n) < 0.5, rng.random(n) < 0.5]
+    clean, noise = np.empty((2, n)), np.empty((2, n))
+    seen, ghost = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+    _observe(*truth, clean, noise, seen, ghost)
+    outs = [np.empty((2, n)), np.empty((2, 2, n)), np.empty(n, bool), np.empty(n, bool)]
+    held_ref = [h.copy() for h in held]
+    _emit(clean + noise, seen, ghost, *held_ref, emit_params, *outs)
+    one = [np.empty_like(o) for o in outs]
+    _observe_emit(*truth, *held, emit_params, *one)
+    for a, b in zip([*outs, *held_ref], [*one, *held], strict=True):
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
