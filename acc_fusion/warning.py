@@ -136,11 +136,12 @@ class WarningLogic(PairState):
 
     def reset(self, pairs: np.ndarray | None = None) -> None:
         """Clear the state of the pairs in ``pairs`` (boolean mask or indices; all if None)."""
-        sel = slice(None) if pairs is None else np.asarray(pairs)
-        self._on[:, sel] = False
-        self._steps_on[:, sel] = 0
-        self._history[:, sel] = False
-        self._count[:, sel] = 0
+        if pairs is None:
+            mask = np.ones(self.n_pairs, dtype=bool)
+        else:
+            mask = np.zeros(self.n_pairs, dtype=bool)
+            mask[np.asarray(pairs)] = True
+        _clear(mask, self._on, self._steps_on, self._history, self._count)
 
     def _resized(self, m: int) -> None:
         self.n_pairs = m
@@ -215,6 +216,26 @@ def _usable(gap, gap_std, v_ego, v_rel, a_lead, ok):  # pragma: no cover - compi
 
 
 @njit(cache=True)
+def _clear(pairs, on, steps_on, history, count):  # pragma: no cover - compiled
+    """:func:`_clear_one` of the pairs in ``pairs (N,)``."""
+    for i in range(pairs.size):
+        if pairs[i]:
+            _clear_one(i, on, steps_on, history, count)
+
+
+@njit(cache=True, inline="always")
+def _clear_one(i, on, steps_on, history, count):  # pragma: no cover - compiled
+    """Clear pair ``i``'s latches, in place: off, no steps on, no true condition in the
+    history ring."""
+    for lv in range(2):
+        on[lv, i] = False
+        steps_on[lv, i] = 0
+        if count[lv, i]:  # the ring holds count[lv, i] true conditions
+            count[lv, i] = 0
+            history[lv, i, :] = False
+
+
+@njit(cache=True)
 def _latch(
     gap, gap_std, z, d_caution, d_imminent, ok, on, steps_on, history, count, slot, k, hold,
     hysteresis, level,
@@ -229,12 +250,7 @@ def _latch(
     d = np.empty(2)
     for i in range(ok.size):
         if not ok[i]:  # no track: level none, state cleared
-            for lv in range(2):
-                on[lv, i] = False
-                steps_on[lv, i] = 0
-                if count[lv, i]:  # the ring holds count[lv, i] true conditions
-                    count[lv, i] = 0
-                    history[lv, i, :] = False
+            _clear_one(i, on, steps_on, history, count)
             level[i] = NONE
             continue
         lower = gap[i] - z * gap_std[i]

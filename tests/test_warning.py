@@ -221,3 +221,20 @@ def test_bad_construction_and_inputs_are_rejected():
         logic.step([10.0, 10.0], V_EGO, V_REL, gap_std=[-1.0, 0.0])
     with pytest.raises(InputError, match="v_rel must be finite"):
         logic.step([10.0, 10.0], V_EGO, [np.nan, -1.0])
+
+
+def test_reset_by_indices_equals_reset_by_mask_and_clears_only_those_pairs():
+    rng = np.random.default_rng(0)
+    logics = [WarningLogic(WarningConfig(), 6, 0.05) for _ in range(3)]
+    for _ in range(10):
+        gap = rng.uniform(0.0, 30.0, 6)
+        for logic in logics:
+            logic.step(gap, 25.0, -8.0)
+    logics[0].reset(np.array([False, True, False, False, True, False]))
+    logics[1].reset(np.array([1, 4]))
+    for name in ("_on", "_steps_on", "_history", "_count"):
+        assert np.array_equal(getattr(logics[0], name), getattr(logics[1], name))
+    kept = np.array([True, False, True, True, False, True])
+    assert np.array_equal(logics[0].level[kept], logics[2].level[kept])
+    assert (logics[0].level[~kept] == NONE).all()
+    assert (logics[2].level[~kept] != NONE).any()
