@@ -191,12 +191,10 @@ class EgoMotionFilter(PairState):
         n = self.n_vehicles
         sel = self._mask("mask", mask)
         v0 = np.zeros(n) if speed is None else check_array("speed", speed, (n,), where=sel)
-        self._v = np.where(sel, v0, self._v)
-        self._b = np.where(sel, 0.0, self._b)
-        self._p00 = np.where(sel, self.config.speed_var0, self._p00)
-        self._p01 = np.where(sel, 0.0, self._p01)
-        self._p11 = np.where(sel, self.config.bias_var0, self._p11)
-        self._has_prev = np.where(sel, False, self._has_prev)
+        _reset(
+            sel, v0, self.config.speed_var0, self.config.bias_var0, self._v, self._b, self._p00,
+            self._p01, self._p11, self._has_prev,
+        )  # fmt: skip
 
     def _resized(self, m: int) -> None:
         self.n_vehicles = m
@@ -264,6 +262,17 @@ def _usable(accel, speed, valid):  # pragma: no cover - compiled
         if not np.isfinite(accel[i]) or (valid[i] and not np.isfinite(speed[i])):
             return False
     return True
+
+
+@njit(cache=True)
+def _reset(sel, v0, speed_var0, bias_var0, v, b, p00, p01, p11, has_prev):  # pragma: no cover
+    """:meth:`EgoMotionFilter.reset` of the vehicles in ``sel (N,)``, in place: speed ``v0``,
+    bias 0, covariance ``diag(speed_var0, bias_var0)``, no previous sample."""
+    for i in range(sel.size):
+        if sel[i]:
+            v[i], b[i] = v0[i], 0.0
+            p00[i], p01[i], p11[i] = speed_var0, 0.0, bias_var0
+            has_prev[i] = False
 
 
 @njit(cache=True, error_model="numpy")

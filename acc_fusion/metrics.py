@@ -74,7 +74,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.slots import PairState
+from acc_fusion.slots import PairState, pair_mask
 from acc_fusion.stats import Distribution, Histogram, Rate
 from acc_fusion.validation import check_array, check_range
 
@@ -110,13 +110,11 @@ class _Events(PairState):
         """``(on, live, matched, start, end)``, what :func:`_event_step` advances."""
         return self.on, self.live, self.matched, self.start, self.end
 
-    def finish(self, pairs: np.ndarray | slice = slice(None)) -> np.ndarray:
+    def finish(self, pairs: np.ndarray | None = None) -> np.ndarray:
         """End the events of ``pairs`` (a boolean mask; all by default); returns the pairs
         whose event was unmatched."""
-        unmatched = np.zeros(self.live.size, dtype=bool)
-        unmatched[pairs] = self.live[pairs] & ~self.matched[pairs]
-        self.on[pairs] = False
-        self.live[pairs] = False
+        unmatched = np.empty(self.live.size, dtype=bool)
+        _finish(pair_mask(pairs, self.live.size), self.on, self.live, self.matched, unmatched)
         return unmatched
 
 
@@ -455,6 +453,17 @@ def _usable(system, oracle, ttc, speed, active):  # pragma: no cover - compiled
         if active[i] and not (ttc[i] >= 0.0 and np.isfinite(speed[i]) and speed[i] >= 0.0):
             return False
     return True
+
+
+@njit(cache=True)
+def _finish(pairs, on, live, matched, unmatched):  # pragma: no cover - compiled
+    """:meth:`_Events.finish` of the pairs in ``pairs (N,)``: their events end (not on, not
+    live, in place); ``unmatched (N,)`` receives those whose live event was unmatched."""
+    for i in range(pairs.size):
+        unmatched[i] = pairs[i] and live[i] and not matched[i]
+        if pairs[i]:
+            on[i] = False
+            live[i] = False
 
 
 @njit(cache=True)

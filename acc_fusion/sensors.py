@@ -67,7 +67,7 @@ from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.faults import Fault, Report, apply_faults
 from acc_fusion.models import MEAS_DIM
-from acc_fusion.slots import PairState
+from acc_fusion.slots import PairState, pair_mask
 from acc_fusion.truth import TruthFrame
 from acc_fusion.validation import check_interval, check_range
 
@@ -397,11 +397,10 @@ class Sensor(PairState):
     def forget(self, pairs: np.ndarray) -> None:
         """Clear the clutter and the held output of ``pairs`` (a slot that got a new
         vehicle: its sensor has seen nothing yet)."""
-        self._held_z[:, pairs] = np.nan
-        self._held_valid[pairs] = False
-        self._held_ghost[pairs] = False
-        self._ghost_range[pairs] = np.inf
-        self._ghost_life[pairs] = 0.0
+        _forget(
+            pair_mask(pairs, self._n), self._held_z, self._held_valid, self._held_ghost,
+            self._ghost_range, self._ghost_life,
+        )  # fmt: skip
 
     def _draw(self, draw, rows: int = 0) -> np.ndarray:
         """``draw(shape)`` for every allocated pair (``rows`` > 0: ``(rows, pairs)``), cut to
@@ -530,6 +529,21 @@ def _warmup() -> None:
             x, ids, x, x, bearing, x, x, x, pair, (0.0,) * 7, pair, flag, flag, (0.0,) * 3, pair,
             cov, flag, flag,
         )  # fmt: skip
+
+
+@njit(cache=True)
+def _forget(pairs, held_z, held_valid, held_ghost, ghost_range, ghost_life):  # pragma: no cover
+    """:meth:`Sensor.forget` of the pairs in ``pairs (N,)``, in place: no held output
+    (``held_z (2, N)`` NaN, not valid, no ghost) and a free clutter slot (range inf,
+    lifetime 0)."""
+    for i in range(pairs.size):
+        if pairs[i]:
+            for a in range(held_z.shape[0]):
+                held_z[a, i] = np.nan
+            held_valid[i] = False
+            held_ghost[i] = False
+            ghost_range[i] = np.inf
+            ghost_life[i] = 0.0
 
 
 @njit(cache=True)

@@ -59,6 +59,16 @@ class PairState:
         """Set the pair count to ``m`` and resize the stage's parts (subclasses extend it)."""
 
 
+def pair_mask(pairs, n: int) -> np.ndarray:
+    """``pairs`` (a boolean mask ``(n,)`` or indices; ``None``: every pair) as a boolean
+    mask ``(n,)``; numpy checks the mask's length and the indices' range."""
+    if pairs is None:
+        return np.ones(n, dtype=bool)
+    mask = np.zeros(n, dtype=bool)
+    mask[np.asarray(pairs)] = True
+    return mask
+
+
 def resize_all(stages, m: int) -> None:
     """:meth:`PairState.resize` every stage of ``stages`` to ``m`` pairs."""
     for stage in stages:

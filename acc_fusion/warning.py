@@ -42,7 +42,7 @@ from numba import njit
 from acc_fusion.config import from_mapping
 from acc_fusion.errors import ConfigError, InputError
 from acc_fusion.safety import SAFETY_MODELS, distances_unchecked, model_constants
-from acc_fusion.slots import PairState
+from acc_fusion.slots import PairState, pair_mask
 from acc_fusion.validation import check_array, check_choice, check_range
 
 NONE, CAUTION, IMMINENT = 0, 1, 2
@@ -136,12 +136,7 @@ class WarningLogic(PairState):
 
     def reset(self, pairs: np.ndarray | None = None) -> None:
         """Clear the state of the pairs in ``pairs`` (boolean mask or indices; all if None)."""
-        if pairs is None:
-            mask = np.ones(self.n_pairs, dtype=bool)
-        else:
-            mask = np.zeros(self.n_pairs, dtype=bool)
-            mask[np.asarray(pairs)] = True
-        _clear(mask, self._on, self._steps_on, self._history, self._count)
+        _clear(pair_mask(pairs, self.n_pairs), self._on, self._steps_on, self._history, self._count)
 
     def _resized(self, m: int) -> None:
         self.n_pairs = m

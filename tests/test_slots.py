@@ -51,3 +51,16 @@ def test_extent_covers_the_active_slots_and_those_active_a_step_ago():
     assert extent.fit(np.zeros(256, dtype=bool)) == 16  # never empty
     active[:] = True
     assert extent.fit(active) == 256
+
+
+def test_pair_mask_takes_a_mask_indices_or_none():
+    from acc_fusion.slots import pair_mask
+
+    mask = np.array([False, True, False, True])
+    assert np.array_equal(pair_mask(mask, 4), mask)
+    assert np.array_equal(pair_mask([1, 3], 4), mask)
+    assert pair_mask(None, 4).all()
+    with pytest.raises(IndexError):
+        pair_mask([4], 4)
+    with pytest.raises(IndexError):
+        pair_mask(np.ones(3, dtype=bool), 4)
