@@ -157,19 +157,9 @@ class _FrameRing:
 
 @njit(cache=True)
 def _pack(
-    floats,
-    ints,
-    flags,
-    offset,
-    k,
-    block,
-    collision_speed,
-    leader_id,
-    active,
-    reassigned,
-    collided,
-    inattentive,
-):  # pragma: no cover - compiled
+    floats, ints, flags, offset, k, block, collision_speed, leader_id, active, reassigned,
+    collided, inattentive,
+):  # pragma: no cover - compiled  # fmt: skip
     """Write the first ``k`` slots of a frame at byte ``offset`` (a multiple of 8) of the
     ring, whose memory ``floats``, ``ints`` and ``flags`` view as float64, int64 and bool:
     the rows of ``block`` then ``collision_speed`` (the float rows, :data:`_EMPTY_FLOATS`),
