@@ -261,6 +261,12 @@ class Estimator(PairState, ABC):
     @abstractmethod
     def _state(self) -> tuple[np.ndarray, np.ndarray]: ...
 
+    @property
+    def _coast_limit(self) -> float:
+        """Seconds a track may go without a measurement before it is lost (``max_coast``,
+        with a tolerance for the rounding of summed time steps)."""
+        return self.config.filter.max_coast + 1e-9
+
     def _isolated(self) -> np.ndarray:
         return np.zeros((self.n_pairs, self.n_sensors), dtype=bool)
 
@@ -285,7 +291,7 @@ class Estimator(PairState, ABC):
         self._u = ego_accel
         t = float(measurements[0].t)
         lost = np.empty(self.n_pairs, dtype=bool)
-        limit = self.config.filter.max_coast + 1e-9
+        limit = self._coast_limit
         if _lose(self.initialised, self._target, target_id, self._last, t, limit, lost):
             self._drop(lost)
         self._nis[:] = np.nan
@@ -536,7 +542,7 @@ class FederatedFilter(Estimator):
         out = np.empty(self.n_pairs, dtype=bool)
         _confirmed(
             self._needed, self._seen, self._online_at, self._t,
-            self.config.filter.max_coast + 1e-9, self.master.x[0], lo, hi, self.fdi.isolated,
+            self._coast_limit, self.master.x[0], lo, hi, self.fdi.isolated,
             self.initialised, out,
         )  # fmt: skip
         return out
@@ -632,7 +638,7 @@ class FederatedFilter(Estimator):
         self._k += 1
         # A track whose every recently reporting sensor is isolated is lost: start again.
         isolated = self._isolation()
-        silent = self._t - self._reported_at > self.config.filter.max_coast + 1e-9
+        silent = self._t - self._reported_at > self._coast_limit
         lost = ini & isolated.any(axis=0) & (isolated | silent).all(axis=0)
         if lost.any():
             self.initialised &= ~lost
@@ -653,7 +659,7 @@ class FederatedFilter(Estimator):
             fdi.arrays()[6] if fdi is not None else _NO_FDI[6],
             self._inflate, self._feedback, self._increments, self.config.beta == "trace",
             self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
-            fc.max_coast + 1e-9, self._nis, used,
+            self._coast_limit, self._nis, used,
         )  # fmt: skip
         self._infl = None
         self._online_at[self._online] = self._t
