@@ -114,6 +114,7 @@ stepping past the ``.sumocfg``'s end is allowed (the end is enforced here); a se
 
 from __future__ import annotations
 
+import bisect
 import heapq
 import math
 import os
@@ -547,9 +548,13 @@ class SumoSource(SlotSource):
         self._slot_vid: list[str | None] = [None] * n
         self._free = list(range(n))  # a heap: the lowest free slot first
         self._waiting: dict[str, None] = {}  # equipped vehicles without a slot, FIFO
-        self._occ_slots = np.zeros(0, dtype=np.intp)
+        # The occupied slots in ascending order, with their vehicles, kept up to date as
+        # slots are taken and freed; the slots taken (True) or freed (False) since the last
+        # frame, applied to the (N,) arrays by _read.
+        self._occ_list: list[int] = []
         self._occ_vids: list[str] = []
-        self._dirty = False
+        self._occ_slots = np.zeros(0, dtype=np.intp)
+        self._flips: list[tuple[int, bool]] = []
         self._min_gap = np.zeros(n)
         self._prev_speed = np.zeros(n)  # each slot's speed at the previous step
         # SUMO's acceleration of the vehicles new to their slot (read once), NaN elsewhere.
@@ -629,7 +634,7 @@ class SumoSource(SlotSource):
         (its ``device.ssm.minTTC`` parameter, followed at every step; ``inf`` when it never
         had an encounter with a TTC).  Empty unless ``ssm`` is set."""
         out = dict(self._ssm_min)
-        for slot, vid in zip(self._occ_slots, self._occ_vids, strict=True):
+        for slot, vid in zip(self._occ_list, self._occ_vids, strict=True):
             out[vid] = min(out.get(vid, math.inf), float(self._ssm_slot[slot]))
         return out
 
@@ -644,6 +649,12 @@ class SumoSource(SlotSource):
         Raises:
             SumoError: SUMO failed (the source is closed; everything read so far is kept).
         """
+        self._step(ego_brake)
+        return self._frame
+
+    def _step(self, ego_brake: np.ndarray | None = None) -> None:
+        """:meth:`advance` without making the frame (the background source's child sends the
+        frame's arrays instead)."""
         if self._closed:
             raise SumoError("the SUMO simulation is closed; open a new SumoSource")
         brake = None
@@ -658,7 +669,6 @@ class SumoSource(SlotSource):
             self._fail(exc)
         self._k += 1
         self._guard(self._update)
-        return self._frame
 
     def inject_hazard(
         self, vehicle_id: str, decel: float | None = None, duration: float | None = None
@@ -892,10 +902,12 @@ class SumoSource(SlotSource):
             self._ssm_min[vid] = min(self._ssm_min.get(vid, math.inf), float(self._ssm_slot[slot]))
         self._slot_vid[slot] = None
         self._slot_of.pop(vid, None)
+        i = bisect.bisect_left(self._occ_list, slot)
+        del self._occ_list[i], self._occ_vids[i]
+        self._flips.append((slot, False))
         if vid in self._info:
             self._set_code(vid)
         freed.append(slot)
-        self._dirty = True
 
     def _assign(self) -> None:
         """Put waiting equipped vehicles into free slots (lowest slot first, FIFO)."""
@@ -908,6 +920,10 @@ class SumoSource(SlotSource):
             slot = heapq.heappop(self._free)
             self._slot_vid[slot] = vid
             self._slot_of[vid] = slot
+            i = bisect.bisect_left(self._occ_list, slot)
+            self._occ_list.insert(i, slot)
+            self._occ_vids.insert(i, vid)
+            self._flips.append((slot, True))
             self._set_code(vid, slot)
             self._reassigned[slot] = True
             self._collided[slot] = False
@@ -919,7 +935,6 @@ class SumoSource(SlotSource):
                 self._new_accel[slot] = float(veh.getAcceleration(vid))
                 self._new_slots.append(slot)
             self._inattentive[slot] = self._info[vid][2]
-            self._dirty = True
         if self._waiting and not self._capacity_warned:
             self._capacity_warned = True
             warnings.warn(
@@ -932,17 +947,16 @@ class SumoSource(SlotSource):
 
     def _read(self) -> None:
         """Fill the frame from SUMO; a vehicle that left unannounced frees its slot."""
-        if self._dirty:
-            occ = sorted(self._slot_of.values())
-            self._occ_slots = np.asarray(occ, dtype=np.intp)
-            self._occ_vids = [self._slot_vid[i] for i in occ]
-            self._active = np.zeros(self.n_pairs, dtype=bool)
-            self._active[self._occ_slots] = True
-            self._dirty = False
+        if self._flips:  # a new array: the frames handed out keep theirs
+            active = self._active.copy()
+            for slot, taken in self._flips:
+                active[slot] = taken
+            self._flips.clear()
+            self._active, self._occ_slots = active, np.flatnonzero(active)
         if self._subscribed or self.config.ssm:
             self._res = self._api.vehicle.getAllSubscriptionResults()
         try:
-            self._frame = self._fill()
+            self._fill()
         except (KeyError, *self._errors):
             if not self._sweep():
                 raise
@@ -962,9 +976,10 @@ class SumoSource(SlotSource):
             heapq.heappush(self._free, slot)
         return bool(freed)
 
-    def _fill(self) -> TruthFrame:
-        """The frame of the occupied slots: SUMO's values read with one pass over the
-        vehicles per quantity, then arranged into the slots by :func:`_frame_arrays`."""
+    def _fill(self) -> None:
+        """The frame's arrays of the occupied slots: SUMO's values read with one pass over the
+        vehicles per quantity, then arranged into the slots by :func:`_frame_arrays` (the
+        :class:`TruthFrame` itself is made when asked for: :attr:`_frame`)."""
         slots, vids = self._occ_slots, self._occ_vids
         veh, res = self._api.vehicle, self._res
         sp, ac, ld = self._v_speed, self._v_accel, self._v_leader
@@ -974,7 +989,7 @@ class SumoSource(SlotSource):
         if self._native is not None:  # one call for every vehicle
             speed, dists, codes = np.empty(m), np.empty(m), np.empty(m, dtype=np.int64)
             n = self.n_pairs  # the ids of the leaders without a slot, by position
-            lead_ids = self._native.read(vids, lookahead, self._code, n, speed, dists, codes)
+            lead_ids = self._native.read(vids, slots, lookahead, self._code, n, speed, dists, codes)
         else:
             if self._subscribed:
                 rows = [res[v] for v in vids]
@@ -1000,27 +1015,34 @@ class SumoSource(SlotSource):
             self._min_gap,
             lookahead,
         )
-        ego_v, ego_a, gap, lead_v, lead_a, lateral = block
         if other.size:  # leaders without a slot: their own getters
             others, at = [lead_ids[i] for i in other.tolist()], slots[other]
             if self._subscribed:
-                lead_v[at] = [res[x][sp] for x in others]
-                lead_a[at] = [res[x][ac] for x in others]
+                block[3, at] = [res[x][sp] for x in others]
+                block[4, at] = [res[x][ac] for x in others]
             else:
-                lead_v[at] = [veh.getSpeed(x) for x in others]
-                lead_a[at] = [veh.getAcceleration(x) for x in others]
+                block[3, at] = [veh.getSpeed(x) for x in others]
+                block[4, at] = [veh.getAcceleration(x) for x in others]
         if m and self.config.ssm:
             pk = self._v_param
             ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
             self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
-        self._prev_speed = ego_v.copy()
+        self._prev_speed = block[0].copy()
         if self._new_slots:  # read once, when the vehicle took its slot
             self._new_accel[self._new_slots] = np.nan
             self._new_slots.clear()
-        self._block = block
-        return TruthFrame.from_arrays(
-            self._t, ego_v, ego_a, gap, lead_v, lead_a, leader, lateral_offset=lateral
-        )
+        self._block, self._leader, self._made = block, leader, (self._t, None)
+
+    @property
+    def _frame(self) -> TruthFrame:
+        """The current :class:`TruthFrame`, of the arrays :meth:`_fill` read, made on first
+        use (the background source's child never asks: it sends the arrays)."""
+        t, frame = self._made
+        if frame is None:
+            b = self._block
+            frame = TruthFrame.from_arrays(t, *b[:5], self._leader, lateral_offset=b[5])
+            self._made = (t, frame)
+        return frame
 
 
 @njit(cache=True)

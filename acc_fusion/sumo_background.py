@@ -59,6 +59,7 @@ import warnings
 from collections import deque
 from itertools import islice
 from multiprocessing.connection import Connection
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -71,6 +72,7 @@ from acc_fusion.validation import check_array
 
 #: Counters of :class:`~acc_fusion.sumo.SumoSource` mirrored by the background source.
 COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
+_counts = attrgetter(*COUNTERS)
 #: Bytes of the ring of shared memory the child writes frames into (at least 16 frames of
 #: every slot): about 800 frames of the motorway at its peak, more while it fills.  SUMO's
 #: step costs grow with the traffic while the pipeline's are fixed, so the child runs ahead
@@ -253,7 +255,7 @@ class _Snapshots:
         """The message of ``src``'s current step, with the warnings ``caught`` during it,
         its arrays written into the ring from the source's own (no copies): the frame's
         block of float rows (:func:`acc_fusion.sumo._frame_arrays`) and the slot flags."""
-        frame, active = src.frame(), src._active  # replaced, never changed in place
+        active = src._active  # replaced, never changed in place
         reassigned, collided = src._reassigned, src._collided
         k, candidates = _extent(active, reassigned, collided, self._was_active)
         ids, known = src._slot_vid, self._known
@@ -262,16 +264,16 @@ class _Snapshots:
             if ids[i] != known[i]:
                 changed[i] = known[i] = ids[i]
         self._was_active = active
-        arrays = (src._block, src._collision_speed, frame.leader_id, active, reassigned, collided)
+        arrays = (src._block, src._collision_speed, src._leader, active, reassigned, collided)
         position = self._ring.write((*arrays, src._inattentive), k)
         return (
             "frame",
-            frame.t,
+            src.t,
             k,
             position,
             changed,
             src.done,
-            tuple(getattr(src, c) for c in COUNTERS),
+            _counts(src),
             [(w.category, str(w.message)) for w in caught],
         )
 
@@ -386,7 +388,7 @@ def _serve(config: SumoConfig, conn: Any, ring: _FrameRing) -> None:
             while not src.done:
                 caught.clear()
                 try:
-                    src.advance()
+                    src._step()
                 except Exception as exc:  # SUMO failed: the parent raises it at this frame
                     outbox.put(_failure(exc))
                     break

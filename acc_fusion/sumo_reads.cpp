@@ -5,26 +5,63 @@
 // the calls reach the same (embedded) simulation as libsumo's Python functions.  It reads
 // exactly what those functions return (libsumo::Vehicle::getSpeed and getLeader); only the
 // per-call cost of the Python wrapper is gone, and the leaders' codes are looked up in a C++
-// table (Codes) rather than a dict, so no Python string is made per leader.
+// table (Codes) rather than a dict, so no Python string is made per leader.  Each slot also
+// remembers its last leader's entry in that table, so that a leader seen at the step before
+// costs a string comparison instead of a hash lookup.
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <climits>
 #include <exception>
+#include <iterator>
 #include <new>
 #include <string>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include <libsumo/Vehicle.h>
 
 // Codes: a str -> int table with the dict methods SumoSource uses (c[k] = v, c[k], del c[k],
 // get, pop, len, in), read by read() without Python objects.
+//
+// A deleted key's entry is marked DEAD rather than erased, so that the pointers to entries
+// that read() keeps per slot stay valid (an unordered_map moves no entry when it grows); the
+// dead entries are erased together once there are more than max(DEAD_LIMIT, live entries),
+// which also drops every kept pointer (epoch).  Memory stays bounded by the live entries.
 typedef std::unordered_map<std::string, long long> Table;
+
+static const long long DEAD = LLONG_MIN;
+static const size_t DEAD_LIMIT = 1024;
+
+// A slot's last leader: its id, the table entry of its code and the epoch it was found in.
+struct Seen {
+    std::string id;
+    const long long* code = nullptr;
+    unsigned long long epoch = 0;
+};
 
 struct Codes {
     PyObject_HEAD
     Table* table;
+    std::vector<Seen>* seen;
+    size_t dead;
+    unsigned long long epoch;
 };
+
+static bool live(const Table::iterator& it, const Table* table) {
+    return it != table->end() && it->second != DEAD;
+}
+
+// Mark an entry dead (a deleted key); erase the dead ones once there are too many.
+static void kill(Codes* codes, Table::iterator it) {
+    it->second = DEAD;
+    if (++codes->dead <= DEAD_LIMIT || codes->dead <= codes->table->size() - codes->dead) return;
+    for (Table::iterator at = codes->table->begin(); at != codes->table->end();)
+        at = at->second == DEAD ? codes->table->erase(at) : std::next(at);
+    codes->dead = 0;
+    ++codes->epoch;  // the pointers kept by read() may point at erased entries
+}
 
 static bool key_of(PyObject* key, std::string& out) {
     Py_ssize_t len;
@@ -46,7 +83,10 @@ static PyObject* codes_new(PyTypeObject* type, PyObject*, PyObject*) {
     Codes* self = reinterpret_cast<Codes*>(type->tp_alloc(type, 0));
     if (self == nullptr) return nullptr;
     self->table = new (std::nothrow) Table();
-    if (self->table == nullptr) {
+    self->seen = new (std::nothrow) std::vector<Seen>();
+    self->dead = 0;
+    self->epoch = 0;
+    if (self->table == nullptr || self->seen == nullptr) {
         Py_DECREF(self);
         return PyErr_NoMemory();
     }
@@ -55,17 +95,19 @@ static PyObject* codes_new(PyTypeObject* type, PyObject*, PyObject*) {
 
 static void codes_dealloc(PyObject* self) {
     delete reinterpret_cast<Codes*>(self)->table;
+    delete reinterpret_cast<Codes*>(self)->seen;
     Py_TYPE(self)->tp_free(self);
 }
 
 static Py_ssize_t codes_len(PyObject* self) {
-    return static_cast<Py_ssize_t>(reinterpret_cast<Codes*>(self)->table->size());
+    Codes* codes = reinterpret_cast<Codes*>(self);
+    return static_cast<Py_ssize_t>(codes->table->size() - codes->dead);
 }
 
 static PyObject* codes_getitem(PyObject* self, PyObject* key) {
     Table::iterator it;
     if (!find(reinterpret_cast<Codes*>(self), key, it)) return nullptr;
-    if (it == reinterpret_cast<Codes*>(self)->table->end()) {
+    if (!live(it, reinterpret_cast<Codes*>(self)->table)) {
         PyErr_SetObject(PyExc_KeyError, key);
         return nullptr;
     }
@@ -73,20 +115,31 @@ static PyObject* codes_getitem(PyObject* self, PyObject* key) {
 }
 
 static int codes_setitem(PyObject* self, PyObject* key, PyObject* value) {
-    Table* table = reinterpret_cast<Codes*>(self)->table;
+    Codes* codes = reinterpret_cast<Codes*>(self);
     std::string k;
     if (!key_of(key, k)) return -1;
+    Table::iterator it = codes->table->find(k);
     if (value == nullptr) {  // del c[k]
-        if (table->erase(k) == 0) {
+        if (!live(it, codes->table)) {
             PyErr_SetObject(PyExc_KeyError, key);
             return -1;
         }
+        kill(codes, it);
         return 0;
     }
     const long long v = PyLong_AsLongLong(value);
     if (v == -1 && PyErr_Occurred()) return -1;
+    if (v == DEAD) {
+        PyErr_SetString(PyExc_ValueError, "a code must be greater than the smallest int64");
+        return -1;
+    }
+    if (it != codes->table->end()) {  // in place: the pointers to it stay valid
+        if (it->second == DEAD) --codes->dead;
+        it->second = v;
+        return 0;
+    }
     try {
-        (*table)[k] = v;
+        codes->table->emplace(std::move(k), v);
     } catch (const std::bad_alloc&) {
         PyErr_NoMemory();
         return -1;
@@ -97,7 +150,7 @@ static int codes_setitem(PyObject* self, PyObject* key, PyObject* value) {
 static int codes_contains(PyObject* self, PyObject* key) {
     Table::iterator it;
     if (!find(reinterpret_cast<Codes*>(self), key, it)) return -1;
-    return it != reinterpret_cast<Codes*>(self)->table->end();
+    return live(it, reinterpret_cast<Codes*>(self)->table);
 }
 
 // get(key, default=None) and pop(key, default=None): the code, else default.
@@ -107,12 +160,12 @@ static PyObject* lookup(PyObject* self, PyObject* args, bool remove) {
     Codes* codes = reinterpret_cast<Codes*>(self);
     Table::iterator it;
     if (!find(codes, key, it)) return nullptr;
-    if (it == codes->table->end()) {
+    if (!live(it, codes->table)) {
         Py_INCREF(fallback);
         return fallback;
     }
     PyObject* out = PyLong_FromLongLong(it->second);
-    if (remove && out != nullptr) codes->table->erase(it);
+    if (remove && out != nullptr) kill(codes, it);
     return out;
 }
 
@@ -146,44 +199,67 @@ static PyObject* init(PyObject*, PyObject* args) {
     Py_RETURN_NONE;
 }
 
-// read(vids, lookahead, codes, n_pairs, speed, dist, code) -> {i: leader id}
+// The code of leader (-1: none), through the entry its follower's slot kept (see Codes).
+static long long code_of(Codes* codes, Seen& last, const std::string& leader) {
+    if (leader.empty()) return -1;
+    long long value = -1;
+    if (last.code != nullptr && last.epoch == codes->epoch && last.id == leader) {
+        value = *last.code;
+    } else {
+        const Table::iterator it = codes->table->find(leader);
+        if (it != codes->table->end()) {
+            last.id = leader;
+            last.code = &it->second;
+            last.epoch = codes->epoch;
+            value = it->second;
+        }
+    }
+    return value == DEAD ? -1 : value;
+}
+
+static bool buffer_ok(const Py_buffer& b, Py_ssize_t n) { return b.itemsize == 8 && b.len >= n * 8; }
+
+// read(vids, slots, lookahead, codes, n_pairs, speed, dist, code) -> {i: leader id}
 //
-// For each vehicle id vids[i]: speed[i] = getSpeed, (leader, dist[i]) = getLeader(lookahead),
-// code[i] = codes[leader] (-1 without a leader or when the leader has no code).  Returns the
-// ids of the leaders whose code has no slot (code % (n_pairs + 1) == 0: SumoSource._set_code),
-// by position i: the caller reads their speed and acceleration.  speed, dist: writable
-// float64 buffers, code: int64, each of at least len(vids) items.
+// For each vehicle id vids[i], in slot slots[i] (in [0, n_pairs)): speed[i] = getSpeed,
+// (leader, dist[i]) = getLeader(lookahead), code[i] = codes[leader] (-1 without a leader or
+// when the leader has no code).  Returns the ids of the leaders whose code has no slot
+// (code % (n_pairs + 1) == 0: SumoSource._set_code), by position i: the caller reads their
+// speed and acceleration.  slots: an int64 buffer; speed, dist: writable float64 buffers,
+// code: int64; each of at least len(vids) items.
 static PyObject* read(PyObject*, PyObject* args) {
-    PyObject *vids, *codes;
+    PyObject *vids, *table;
     double lookahead;
     long long n_pairs;
-    Py_buffer sp, ds, cd;
-    if (!PyArg_ParseTuple(args, "O!dO!Lw*w*w*", &PyList_Type, &vids, &lookahead, &CodesType,
-                          &codes, &n_pairs, &sp, &ds, &cd))
+    Py_buffer sl, sp, ds, cd;
+    if (!PyArg_ParseTuple(args, "O!y*dO!Lw*w*w*", &PyList_Type, &vids, &sl, &lookahead,
+                          &CodesType, &table, &n_pairs, &sp, &ds, &cd))
         return nullptr;
     const Py_ssize_t n = PyList_GET_SIZE(vids);
-    const Table& table = *reinterpret_cast<Codes*>(codes)->table;
+    Codes* codes = reinterpret_cast<Codes*>(table);
+    const long long* slots = static_cast<const long long*>(sl.buf);
     PyObject* out = nullptr;
-    if (sp.len < n * 8 || ds.len < n * 8 || cd.len < n * 8 || sp.itemsize != 8 ||
-        ds.itemsize != 8 || cd.itemsize != 8) {
+    bool slots_ok = n_pairs >= 0;
+    for (Py_ssize_t i = 0; slots_ok && buffer_ok(sl, n) && i < n; ++i)
+        slots_ok = slots[i] >= 0 && slots[i] < n_pairs;
+    if (!buffer_ok(sl, n) || !buffer_ok(sp, n) || !buffer_ok(ds, n) || !buffer_ok(cd, n)) {
         PyErr_SetString(PyExc_ValueError, "read() needs 8-byte buffers of len(vids) items");
-    } else if (n_pairs < 0) {
-        PyErr_SetString(PyExc_ValueError, "read() needs n_pairs >= 0");
+    } else if (!slots_ok) {
+        PyErr_SetString(PyExc_ValueError, "read() needs slots in [0, n_pairs)");
     } else if ((out = PyDict_New()) != nullptr) {
         double* speed = static_cast<double*>(sp.buf);
         double* dist = static_cast<double*>(ds.buf);
         long long* code = static_cast<long long*>(cd.buf);
         std::string id;
         try {
+            if (codes->seen->size() < static_cast<size_t>(n_pairs)) codes->seen->resize(n_pairs);
             for (Py_ssize_t i = 0; i < n; ++i) {
                 if (!key_of(PyList_GET_ITEM(vids, i), id)) throw std::exception();
                 speed[i] = libsumo::Vehicle::getSpeed(id);
                 const std::pair<std::string, double> leader =
                     libsumo::Vehicle::getLeader(id, lookahead);
                 dist[i] = leader.second;
-                const Table::const_iterator it =
-                    leader.first.empty() ? table.end() : table.find(leader.first);
-                code[i] = it != table.end() ? it->second : -1;
+                code[i] = code_of(codes, (*codes->seen)[slots[i]], leader.first);
                 if (code[i] >= 0 && code[i] % (n_pairs + 1) == 0) {  // a leader without a slot
                     PyObject* lid = PyUnicode_FromStringAndSize(leader.first.data(),
                                                                 leader.first.size());
@@ -195,12 +271,16 @@ static PyObject* read(PyObject*, PyObject* args) {
                     if (failed) throw std::exception();
                 }
             }
+        } catch (const std::bad_alloc&) {
+            Py_CLEAR(out);
+            PyErr_NoMemory();
         } catch (const std::exception& exc) {
             Py_CLEAR(out);
             if (!PyErr_Occurred())
                 PyErr_SetString(traci_error ? traci_error : PyExc_RuntimeError, exc.what());
         }
     }
+    PyBuffer_Release(&sl);
     PyBuffer_Release(&sp);
     PyBuffer_Release(&ds);
     PyBuffer_Release(&cd);
@@ -210,9 +290,9 @@ static PyObject* read(PyObject*, PyObject* args) {
 static PyMethodDef methods[] = {
     {"init", init, METH_VARARGS, "init(error): the exception class a failed read raises."},
     {"read", read, METH_VARARGS,
-     "read(vids, lookahead, codes, n_pairs, speed, dist, code) -> {i: leader id}: each "
-     "vehicle's speed and leader (libsumo getSpeed, getLeader) into the buffers; the ids of "
-     "the leaders without a slot."},
+     "read(vids, slots, lookahead, codes, n_pairs, speed, dist, code) -> {i: leader id}: "
+     "each vehicle's speed and leader (libsumo getSpeed, getLeader) into the buffers; the ids "
+     "of the leaders without a slot."},
     {nullptr, nullptr, 0, nullptr}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_sumo_reads", nullptr, -1, methods};

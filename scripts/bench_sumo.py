@@ -70,7 +70,7 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     codes = native.Codes() if native is not None else None  # empty: no leader is found
     get_ids, get_speed = libsumo._libsumo.vehicle_getIDList, libsumo._libsumo.vehicle_getSpeed
     get_leader, lookahead = libsumo._libsumo.vehicle_getLeader, config.lookahead
-    out = np.empty((3, 4096))
+    out, slots = np.empty((3, 4096)), np.arange(4096)
     peak = 0
     t0 = time.perf_counter()
     try:
@@ -82,8 +82,9 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
             ids = get_ids()
             if native is not None:
                 if len(ids) > out.shape[1]:
-                    out = np.empty((3, 2 * len(ids)))
-                native.read(list(ids), lookahead, codes, 1, out[0], out[1], out[2].view(np.int64))
+                    out, slots = np.empty((3, 2 * len(ids))), np.arange(2 * len(ids))
+                n = out.shape[1]
+                native.read(list(ids), slots, lookahead, codes, n, *out[:2], out[2].view(np.int64))
             else:
                 deque(map(get_speed, ids), maxlen=0)
                 deque(map(get_leader, ids, repeat(lookahead)), maxlen=0)

@@ -68,13 +68,15 @@ def test_it_is_compiled_once_into_the_cache_and_raises_libsumos_error(fresh):
     assert native.sumo_reader() is not None and built[0].stat().st_mtime_ns == stamp
     with SumoSource(SumoConfig(str(bundled_nets()["ring"]), end=2.0)):
         speed, dist, code = np.empty(1), np.empty(1), np.empty(1, dtype=np.int64)
-        codes = reader.Codes()
+        codes, slot = reader.Codes(), np.zeros(1, dtype=np.int64)
         with pytest.raises(libsumo.TraCIException):
-            reader.read(["no such vehicle"], 100.0, codes, 4, speed, dist, code)
+            reader.read(["no such vehicle"], slot, 100.0, codes, 4, speed, dist, code)
         with pytest.raises(ValueError, match="8-byte buffers"):
-            reader.read(["x", "y"], 100.0, codes, 4, speed, dist, code)
+            reader.read(["x", "y"], slot, 100.0, codes, 4, speed, dist, code)
+        with pytest.raises(ValueError, match=r"slots in \[0, n_pairs\)"):
+            reader.read(["x"], slot + 4, 100.0, codes, 4, speed, dist, code)
         with pytest.raises(TypeError):
-            reader.read(["x"], 100.0, {}, 4, speed, dist, code)  # a dict is not its table
+            reader.read(["x"], slot, 100.0, {}, 4, speed, dist, code)  # a dict is not its table
 
 
 @pytest.mark.skipif(not BUILDS_HERE, reason="the compiled reader is built on Linux with c++")
@@ -94,6 +96,57 @@ def test_its_code_table_behaves_as_the_dict_it_replaces():
         del codes["nobody"]
     with pytest.raises(TypeError):
         codes[3] = 1  # ids are strings
+    # Deleted keys are erased in bulk once they outnumber the live ones (and 1024): the table
+    # stays a dict throughout.
+    del plain["bus"]
+    for i in range(3000):
+        for table in (codes, plain):
+            table[f"v{i}"] = i
+            if i % 3:
+                del table[f"v{i}"]
+    assert len(codes) == len(plain) == 1001 and all(codes[k] == v for k, v in plain.items())
+    assert "v2999" not in codes and codes.get("v2998") is None and codes["v2997"] == 2997
+
+
+@pytest.mark.skipif(not BUILDS_HERE, reason="the compiled reader is built on Linux with c++")
+def test_a_slot_keeps_its_leaders_entry_through_changes_and_erasures_of_the_table():
+    """read() remembers, per slot, where its last leader's code is in the table: the codes it
+    gives follow every change of the table, a key deleted and set again, and the bulk erasure
+    of deleted keys, as a lookup in a dict would."""
+    reader = native.sumo_reader()
+    with SumoSource(SumoConfig(str(bundled_nets()["ring"]), end=10.0, native=False)) as src:
+        for _ in range(50):
+            src.advance()
+        vids = list(libsumo.vehicle.getIDList())
+        n = len(vids)
+        leaders = [libsumo.vehicle.getLeader(v, 250.0) for v in vids]
+        assert sum(lead is not None for lead in leaders) >= n // 2
+        codes, plain = reader.Codes(), {}
+        slots = np.arange(n, dtype=np.int64)[::-1].copy()  # any slot for any vehicle
+        speed, dist, code = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64)
+
+        def check() -> None:
+            reader.read(vids, slots, 250.0, codes, n, speed, dist, code)
+            want = [plain.get(lead[0], -1) if lead else -1 for lead in leaders]
+            assert code.tolist() == want
+
+        for k, vid in enumerate(vids):
+            codes[vid] = plain[vid] = (k + 1) * (n + 1) + 1
+        check()  # the slots find and keep their leaders' entries
+        a, b = [lead[0] for lead in leaders if lead][:2]  # two leaders, kept by their slots
+        for k, vid in enumerate(vids[::2]):
+            codes[vid] = plain[vid] = (k + 7) * (n + 1) + 2
+        del codes[a], plain[a]
+        check()  # changed in place, one deleted
+        codes[a] = plain[a] = 5 * (n + 1) + 3
+        check()  # set again
+        del codes[b], plain[b]
+        for i in range(2000):  # enough deletions to erase the deleted keys, b's among them
+            codes[f"gone.{i}"] = 1
+            del codes[f"gone.{i}"]
+        check()
+        codes[b] = plain[b] = 9 * (n + 1) + 4  # a new entry
+        check()
 
 
 def test_without_a_compiler_it_warns_once_and_the_source_reads_through_libsumo(fresh, monkeypatch):
