@@ -197,6 +197,10 @@ def test_arrival_frees_the_slot_and_a_later_vehicle_is_reassigned(road):
             src.advance()
             after, arrived = src.vehicle_ids, set(libsumo.simulation.getArrivedIDList())
             frame = src.frame()
+            assert src.active.tolist() == [v is not None for v in after]  # kept as slots change
+            for slot, vid in enumerate(after):  # each slot's values are its vehicle's
+                if vid is not None:
+                    assert frame.ego_speed[slot] == libsumo.vehicle.getSpeed(vid)
             for slot, (old, new) in enumerate(zip(before, after, strict=True)):
                 if old is not None and old in arrived:
                     assert new is None and not src.active[slot]  # freed, not reused at once
@@ -220,6 +224,7 @@ def test_vehicle_removed_behind_our_back_frees_its_slot(road):
         f = src.advance()
         assert src.vehicle_ids[slot] is None and not src.active[slot] and f.leader_id[slot] == -1
         assert vid not in src._info
+        assert src.active.tolist() == [v is not None for v in src.vehicle_ids]
         while not src.done:
             src.advance()
 
