@@ -217,7 +217,10 @@ static long long code_of(Codes* codes, Seen& last, const std::string& leader) {
     return value == DEAD ? -1 : value;
 }
 
-static bool buffer_ok(const Py_buffer& b, Py_ssize_t n) { return b.itemsize == 8 && b.len >= n * 8; }
+// Whether buffer b holds n items of 8 bytes.
+static bool buffer_ok(const Py_buffer& b, Py_ssize_t n) {
+    return b.itemsize == 8 && b.len >= n * 8;
+}
 
 // read(vids, slots, lookahead, codes, n_pairs, speed, dist, code) -> {i: leader id}
 //
@@ -239,13 +242,15 @@ static PyObject* read(PyObject*, PyObject* args) {
     Codes* codes = reinterpret_cast<Codes*>(table);
     const long long* slots = static_cast<const long long*>(sl.buf);
     PyObject* out = nullptr;
-    bool slots_ok = n_pairs >= 0;
-    for (Py_ssize_t i = 0; slots_ok && buffer_ok(sl, n) && i < n; ++i)
-        slots_ok = slots[i] >= 0 && slots[i] < n_pairs;
-    if (!buffer_ok(sl, n) || !buffer_ok(sp, n) || !buffer_ok(ds, n) || !buffer_ok(cd, n)) {
+    const bool buffers = buffer_ok(sl, n) && buffer_ok(sp, n) && buffer_ok(ds, n) &&
+                         buffer_ok(cd, n);
+    bool slots_ok = buffers && n_pairs >= 0;
+    for (Py_ssize_t i = 0; slots_ok && i < n; ++i) slots_ok = slots[i] >= 0 && slots[i] < n_pairs;
+    if (!buffers) {
         PyErr_SetString(PyExc_ValueError, "read() needs 8-byte buffers of len(vids) items");
     } else if (!slots_ok) {
-        PyErr_SetString(PyExc_ValueError, "read() needs slots in [0, n_pairs)");
+        PyErr_SetString(PyExc_ValueError,
+                        "read() needs n_pairs >= 0 and slots in [0, n_pairs)");
     } else if ((out = PyDict_New()) != nullptr) {
         double* speed = static_cast<double*>(sp.buf);
         double* dist = static_cast<double*>(ds.buf);

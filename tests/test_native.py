@@ -75,6 +75,8 @@ def test_it_is_compiled_once_into_the_cache_and_raises_libsumos_error(fresh):
             reader.read(["x", "y"], slot, 100.0, codes, 4, speed, dist, code)
         with pytest.raises(ValueError, match=r"slots in \[0, n_pairs\)"):
             reader.read(["x"], slot + 4, 100.0, codes, 4, speed, dist, code)
+        with pytest.raises(ValueError, match=r"slots in \[0, n_pairs\)"):
+            reader.read([], slot, 100.0, codes, -1, speed, dist, code)
         with pytest.raises(TypeError):
             reader.read(["x"], slot, 100.0, {}, 4, speed, dist, code)  # a dict is not its table
 
