@@ -72,13 +72,15 @@ def sumo_reader() -> ModuleType | None:
     ``RuntimeWarning`` per process naming the reason) where it cannot be built, or when
     ``ACC_FUSION_NATIVE=0``.
 
-    Its ``read(vids, lookahead, codes, n_pairs, speed, dist, code)`` reads, for each vehicle
-    id in the list ``vids``, ``speed[i]`` (``getSpeed``) and the leader within ``lookahead``
-    (``getLeader``): ``dist[i]`` its distance, ``code[i] = codes[leader]`` (``-1`` without a
-    leader or a code), ``codes`` being its ``Codes()`` table (str to int, with the dict
-    methods the source uses, looked up in C++); it returns ``{i: leader id}`` for the leaders
-    whose code has no slot (``code % (n_pairs + 1) == 0``).  A failed read raises
-    ``libsumo.TraCIException``, as libsumo's functions do.
+    Its ``read(vids, slots, lookahead, codes, n_pairs, speed, dist, code)`` reads, for each
+    vehicle id in the list ``vids`` (in slot ``slots[i]``, an int64 array), ``speed[i]``
+    (``getSpeed``) and the leader within ``lookahead`` (``getLeader``): ``dist[i]`` its
+    distance, ``code[i] = codes[leader]`` (``-1`` without a leader or a code), ``codes`` being
+    its ``Codes()`` table (str to int, with the dict methods the source uses, looked up in
+    C++; each slot keeps its last leader's entry, so a leader seen before is not looked up
+    again); it returns ``{i: leader id}`` for the leaders whose code has no slot
+    (``code % (n_pairs + 1) == 0``).  A failed read raises ``libsumo.TraCIException``, as
+    libsumo's functions do.
     """
     if os.environ.get("ACC_FUSION_NATIVE", "1") == "0":
         return None
