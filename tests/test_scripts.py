@@ -43,6 +43,7 @@ def test_help(script):
         ("reproduce_kong2011.py", ["--runs", "0"], "--runs: must be >= 1"),
         ("steady_state_vs_full.py", ["--sensor", "lidar"], "invalid choice: 'lidar'"),
         ("bench_filters.py", ["--sizes", "0"], "must be a whole number >= 1"),
+        ("profile_sumo_process.py", ["--repeat", "0"], "--repeat must be at least 1"),
     ],
 )
 def test_bad_arguments_are_argparse_errors(script, args, message):
@@ -82,6 +83,19 @@ def test_bench_filters_quick():
     ).stdout
     assert "Cost per pair-step" in out and "filterpy" in out and "steady-state" in out
     assert re.fullmatch(r"speedup_vs_filterpy=[0-9.]+", out.strip().splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_profile_sumo_process_prints_the_parts_and_their_total():
+    out = run("profile_sumo_process.py", "--net", "ring", "--end", "20", "--repeat", "1").stdout
+    line, last = out.strip().splitlines()
+    number = r"[0-9]+\.[0-9]{3}"
+    parts = ", ".join(f"{p} ({number})" for p in ("reads", "frame", "snapshot", "message", "rest"))
+    match = re.fullmatch(rf"run 1: SUMO step [0-9]+ µs; {parts}; total ({number})", line)
+    assert match, line
+    *shares, total = (float(x) for x in match.groups())
+    assert all(x >= 0 for x in shares) and abs(sum(shares) - total) < 0.01
+    assert last == f"besides_step={total:.3f}"
 
 
 @pytest.mark.slow
