@@ -555,11 +555,9 @@ class SumoSource(SlotSource):
         self._occ_vids: list[str] = []
         self._occ_slots = np.zeros(0, dtype=np.intp)
         self._flips: list[tuple[int, bool]] = []
-        self._min_gap = np.zeros(n)
-        self._prev_speed = np.zeros(n)  # each slot's speed at the previous step
-        # SUMO's acceleration of the vehicles new to their slot (read once), NaN elsewhere.
-        self._new_accel = np.full(n, np.nan)
-        self._new_slots: list[int] = []
+        self._maker = FrameMaker(n, self.dt, dist)
+        # The slots taken at this step: their vehicle's minGap and acceleration (read once).
+        self._news: dict[int, tuple[float, float]] = {}
         self._inattentive = np.zeros(n, dtype=bool)
         self._collided = np.zeros(n, dtype=bool)
         self._collision_speed = np.full(n, np.nan)
@@ -580,6 +578,7 @@ class SumoSource(SlotSource):
         self._capacity_warned = False
         # Vehicles already in the network (e.g. a loaded state) count as departing now.
         self._update(entering=list(api.vehicle.getIDList()))
+        self._make()
 
     # ---------------------------------------------------------------- public state
     @property
@@ -650,11 +649,12 @@ class SumoSource(SlotSource):
             SumoError: SUMO failed (the source is closed; everything read so far is kept).
         """
         self._step(ego_brake)
+        self._make()
         return self._frame
 
     def _step(self, ego_brake: np.ndarray | None = None) -> None:
-        """:meth:`advance` without making the frame (the background source's child sends the
-        frame's arrays instead)."""
+        """:meth:`advance` without making the frame (the background source's child sends
+        what it read, :meth:`_fill`, and the parent makes the frame)."""
         if self._closed:
             raise SumoError("the SUMO simulation is closed; open a new SumoSource")
         brake = None
@@ -808,6 +808,7 @@ class SumoSource(SlotSource):
         sim = self._api.simulation
         self._t = float(sim.getTime())
         self._reassigned = np.zeros(self.n_pairs, dtype=bool)
+        self._news = {}
         freed: list[int] = []
         back: Sequence[str] = ()
         if entering is None:
@@ -930,10 +931,10 @@ class SumoSource(SlotSource):
             self._collision_speed[slot] = np.nan
             self._shown_level[slot] = -1
             self._ssm_slot[slot] = np.inf
-            self._min_gap[slot] = float(veh.getMinGap(vid))
-            if not self._subscribed:  # TraCI subscribes to every vehicle's acceleration
-                self._new_accel[slot] = float(veh.getAcceleration(vid))
-                self._new_slots.append(slot)
+            min_gap = float(veh.getMinGap(vid))
+            # TraCI subscribes to every vehicle's acceleration (_fill reads them all).
+            accel = math.nan if self._subscribed else float(veh.getAcceleration(vid))
+            self._news[slot] = (min_gap, accel)
             self._inattentive[slot] = self._info[vid][2]
         if self._waiting and not self._capacity_warned:
             self._capacity_warned = True
@@ -977,72 +978,115 @@ class SumoSource(SlotSource):
         return bool(freed)
 
     def _fill(self) -> None:
-        """The frame's arrays of the occupied slots: SUMO's values read with one pass over the
-        vehicles per quantity, then arranged into the slots by :func:`_frame_arrays` (the
-        :class:`TruthFrame` itself is made when asked for: :attr:`_frame`)."""
+        """Read SUMO's values of the occupied slots' vehicles, one pass over them per quantity:
+        each one's speed, its leader's distance and code, and the speed and acceleration of
+        every leader that holds no slot (its own getters), into :attr:`_raw`; the frame is
+        made of them by :meth:`_make` (by the background source's parent process instead)."""
         slots, vids = self._occ_slots, self._occ_vids
         veh, res = self._api.vehicle, self._res
         sp, ac, ld = self._v_speed, self._v_accel, self._v_leader
-        m = len(vids)
+        m, n = len(vids), self.n_pairs
         lookahead = float(self.config.lookahead)
-        accel = self._new_accel
+        accel = None  # SUMO's accelerations where read for every vehicle (TraCI)
         if self._native is not None:  # one call for every vehicle
             speed, dists, codes = np.empty(m), np.empty(m), np.empty(m, dtype=np.int64)
-            n = self.n_pairs  # the ids of the leaders without a slot, by position
             lead_ids = self._native.read(vids, slots, lookahead, self._code, n, speed, dists, codes)
         else:
             if self._subscribed:
                 rows = [res[v] for v in vids]
                 speed = np.array([r[sp] for r in rows], dtype=float).reshape(m)
-                accel = np.full(self.n_pairs, np.nan)
+                accel = np.full(n, np.nan)
                 accel[slots] = [r[ac] for r in rows]
                 leaders = [r[ld] or _NO_LEADER for r in rows]  # TraCI: None without
             else:  # map over C functions: no Python frame per vehicle
                 speed = np.fromiter(map(self._get_speed, vids), float, m)
                 leaders = list(map(self._get_leader, vids, repeat(lookahead)))
-            lead_ids = list(map(itemgetter(0), leaders))
+            ids = list(map(itemgetter(0), leaders))
             dists = np.fromiter(map(itemgetter(1), leaders), float, m)
-            codes = np.fromiter(map(self._code.get, lead_ids, repeat(-1)), np.int64, m)
+            codes = np.fromiter(map(self._code.get, ids, repeat(-1)), np.int64, m)
+            slotless = np.flatnonzero((codes >= 0) & (codes % (n + 1) == 0))
+            lead_ids = {i: ids[i] for i in slotless.tolist()}
+        others = {}  # the leaders without a slot (an unequipped vehicle): their own getters
+        if lead_ids and self._subscribed:
+            others = {i: (res[x][sp], res[x][ac]) for i, x in lead_ids.items()}
+        elif lead_ids:
+            others = {i: (veh.getSpeed(x), veh.getAcceleration(x)) for i, x in lead_ids.items()}
+        if m and self.config.ssm:
+            pk = self._v_param
+            ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
+            self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
+        self._raw = (slots, speed, dists, codes, others, accel)
+
+    def _make(self) -> None:
+        """Make the current frame of what :meth:`_fill` read."""
+        slots, speed, dists, codes, others, accel = self._raw
+        self._frame = self._maker.make(
+            self._t, slots, speed, dists, codes, self._news, others, accel
+        )
+
+
+class FrameMaker:
+    r"""The :class:`TruthFrame` of each step of a SUMO source, from the values read at that
+    step for the occupied slots (:meth:`SumoSource._fill`) and what the frames need from
+    earlier steps: each slot's ``minGap`` and SUMO's acceleration of its vehicle, read once
+    when the vehicle takes the slot, and each slot's speed at the previous step.  A
+    :class:`SumoSource` makes its frames with one; the parent process of a
+    :class:`~acc_fusion.sumo_background.BackgroundSumoSource` makes them with another, of
+    the values SUMO's process sends (so that process does not make frames).
+
+    Args:
+        n_pairs: number of slots N.
+        dt: simulation step [s].
+        lookahead: leaders farther than this are not reported [m].
+    """
+
+    def __init__(self, n_pairs: int, dt: float, lookahead: float) -> None:
+        self.n_pairs, self.dt, self.lookahead = n_pairs, dt, lookahead
+        self._min_gap = np.zeros(n_pairs)
+        self._new_accel = np.full(n_pairs, np.nan)  # SUMO's, for the slots taken at this step
+        self._prev_speed = np.zeros(n_pairs)
+
+    def make(
+        self,
+        t: float,
+        slots: np.ndarray,
+        speed: np.ndarray,
+        dists: np.ndarray,
+        codes: np.ndarray,
+        news: dict[int, tuple[float, float]],
+        others: dict[int, tuple[float, float]],
+        accel: np.ndarray | None = None,
+    ) -> TruthFrame:
+        """The frame at time ``t`` of the vehicles in ``slots`` (ascending), of their
+        ``speed``, their leader's distance ``dists`` and code ``codes``
+        (:meth:`SumoSource._set_code`; ``-1``: none) as :func:`_frame_arrays` takes them, the
+        slots taken at this step (``news``: slot to the vehicle's minGap and acceleration)
+        and the speed and acceleration of the leaders that hold no slot (``others``, by
+        position in ``slots``).  ``accel``: ``(N,)`` accelerations read for every vehicle
+        (TraCI), instead of those of ``news`` and the speeds' differences."""
+        for slot, (min_gap, new_accel) in news.items():  # usually none
+            self._min_gap[slot], self._new_accel[slot] = min_gap, new_accel
         block, leader, other = _frame_arrays(
             self.n_pairs,
             slots,
             speed,
-            accel,
+            self._new_accel if accel is None else accel,
             self._prev_speed,
             self.dt,
             dists,
             codes,
             self._min_gap,
-            lookahead,
+            self.lookahead,
         )
-        if other.size:  # leaders without a slot: their own getters
-            others, at = [lead_ids[i] for i in other.tolist()], slots[other]
-            if self._subscribed:
-                block[3, at] = [res[x][sp] for x in others]
-                block[4, at] = [res[x][ac] for x in others]
-            else:
-                block[3, at] = [veh.getSpeed(x) for x in others]
-                block[4, at] = [veh.getAcceleration(x) for x in others]
-        if m and self.config.ssm:
-            pk = self._v_param
-            ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
-            self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
+        if other.size:
+            lead = [others[i] for i in other.tolist()]
+            at = slots[other]
+            block[3, at] = [v for v, _ in lead]
+            block[4, at] = [a for _, a in lead]
         self._prev_speed = block[0].copy()
-        if self._new_slots:  # read once, when the vehicle took its slot
-            self._new_accel[self._new_slots] = np.nan
-            self._new_slots.clear()
-        self._block, self._leader, self._made = block, leader, (self._t, None)
-
-    @property
-    def _frame(self) -> TruthFrame:
-        """The current :class:`TruthFrame`, of the arrays :meth:`_fill` read, made on first
-        use (the background source's child never asks: it sends the arrays)."""
-        t, frame = self._made
-        if frame is None:
-            b = self._block
-            frame = TruthFrame.from_arrays(t, *b[:5], self._leader, lateral_offset=b[5])
-            self._made = (t, frame)
-        return frame
+        if news:
+            self._new_accel[list(news)] = np.nan
+        return TruthFrame.from_arrays(t, *block[:5], leader, lateral_offset=block[5])
 
 
 @njit(cache=True)
@@ -1061,7 +1105,7 @@ def _frame_arrays(
     acceleration 0, the rest NaN and leader ``-1``.  Returns the rows ``ego_speed,
     ego_accel, gap, lead_speed, lead_accel, lateral_offset`` (0) of one ``(6, N)`` block, the
     ``leader_id`` and the positions ``i`` whose kept leader has no slot (an unequipped
-    vehicle, whose speed and acceleration the caller reads).
+    vehicle, whose speed and acceleration the caller fills in).
     """
     block = np.empty((6, n))
     block[:2] = 0.0

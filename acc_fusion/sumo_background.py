@@ -7,7 +7,7 @@
 itself runs in a child process.  The child steps SUMO, reads the frame and sends it, without
 waiting to be asked, so the SUMO steps and the libsumo reads run on one core while the
 pipeline processes earlier frames on the other.  The child never waits for the parent to
-read while its :class:`_FrameRing` has room (:data:`RING_BYTES`, about 800 frames of the
+read while its :class:`_FrameRing` has room (:data:`RING_BYTES`, about 1 600 frames of the
 motorway at its peak).  That matters because the two sides' costs move in opposite phases:
 SUMO's step grows with the traffic (0.15 ms per step while the motorway fills, 1 ms at its
 peak) while the pipeline's is nearly fixed, so the child runs hundreds of frames ahead early
@@ -18,25 +18,29 @@ paid it twice per step.
 
 Why this is exact, and only in open loop
     The frames are those of a :class:`~acc_fusion.sumo.SumoSource` with the same config,
-    bit for bit (the child *is* one), because nothing the pipeline does reaches SUMO when no
-    driver hears the warnings: hazards, inattentive drivers and slots are drawn inside the
-    source.  A closed loop sends each step's brake requests to SUMO *before* the next step,
-    which a source running ahead cannot honour, so :meth:`BackgroundSumoSource.advance`
-    refuses them and :func:`acc_fusion.fcw.simulate` refuses a closed loop on a source whose
-    ``accepts_brakes`` is false.  ``gui`` (sumo-gui, coloured by warning) needs the pipeline's
-    levels in SUMO too and is refused as well.
+    bit for bit (the child *is* one, and the parent makes each frame with the same
+    :class:`~acc_fusion.sumo.FrameMaker` of the same values), because nothing the pipeline
+    does reaches SUMO when no driver hears the warnings: hazards, inattentive drivers and
+    slots are drawn inside the source.  A closed loop sends each step's brake requests to
+    SUMO *before* the next step, which a source running ahead cannot honour, so
+    :meth:`BackgroundSumoSource.advance` refuses them and :func:`acc_fusion.fcw.simulate`
+    refuses a closed loop on a source whose ``accepts_brakes`` is false.  ``gui`` (sumo-gui,
+    coloured by warning) needs the pipeline's levels in SUMO too and is refused as well.
 
 Processes
     The child is a fresh interpreter (``python -c``, not ``multiprocessing``: a user's script
     without a ``__main__`` guard is not re-imported), connected by a socket pair; libsumo
     holds one simulation per process, so any number of background sources can run in one
-    parent process, each with its own child.  A frame's ``(N,)`` arrays, cut after the last
-    slot in use (:class:`_Snapshots`), are written into a ring of memory shared by the two
-    processes (:class:`_FrameRing`) and copied out by the parent: no pickling and no copy
-    through the kernel for the bulk of a frame, which cost the child a tenth of a SUMO step
-    on the motorway.  The rest of the frame (time, slot ids that changed, counters,
-    warnings) and the frame's place in the ring cross the socket pickled; the parent
-    returns the ring's room as it reads.  The source's ``RuntimeWarning`` s (e.g. more
+    parent process, each with its own child.  The child sends what it read at each step
+    (:meth:`~acc_fusion.sumo.SumoSource._fill`) and the parent makes the frame of it: SUMO's
+    process, which sets the pace, does only what needs SUMO.  The arrays (the vehicles'
+    speeds and leaders, the slot flags cut after the last slot in use; :class:`_Snapshots`)
+    are written into a ring of memory shared by the two processes (:class:`_FrameRing`) and
+    copied out by the parent: no pickling and no copy through the kernel for the bulk of a
+    frame, which cost the child a tenth of a SUMO step on the motorway.  The rest (time,
+    slot ids that changed, the new vehicles' minGap and acceleration, the leaders without a
+    slot, counters, warnings) and the arrays' place in the ring cross the socket pickled;
+    the parent returns the ring's room as it reads.  The source's ``RuntimeWarning`` s (e.g. more
     equipped vehicles than slots) are re-issued in the parent.  A SUMO failure in the
     child reaches the parent as the same :class:`~acc_fusion.sumo.SumoError` at the frame
     where it happened (the frames before it were delivered); a child that dies is a
@@ -66,7 +70,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.errors import AccFusionError, ConfigError
-from acc_fusion.sumo import SumoConfig, SumoError, SumoSource
+from acc_fusion.sumo import FrameMaker, SumoConfig, SumoError, SumoSource
 from acc_fusion.truth import SlotSource, TruthFrame
 from acc_fusion.validation import check_array
 
@@ -74,7 +78,7 @@ from acc_fusion.validation import check_array
 COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
 _counts = attrgetter(*COUNTERS)
 #: Bytes of the ring of shared memory the child writes frames into (at least 16 frames of
-#: every slot): about 800 frames of the motorway at its peak, more while it fills.  SUMO's
+#: every slot): about 1 600 frames of the motorway at its peak, more while it fills.  SUMO's
 #: step costs grow with the traffic while the pipeline's are fixed, so the child runs ahead
 #: while the network fills and the parent catches up later; a buffer of a few frames made
 #: each process wait on the other's slow steps instead.
@@ -90,23 +94,20 @@ _IOV_MAX = 16
 CLOSE_TIMEOUT = 30.0
 
 
-#: The values of an empty slot (with no collision to report) in the float rows of a frame
-#: message: the rows of the source's frame block (ego speed and acceleration, gap, lead speed
-#: and acceleration, lateral offset), then the collision speed.
-_EMPTY_FLOATS = (0.0, 0.0, np.nan, np.nan, np.nan, 0.0, np.nan)
 #: The slot flags of a frame message, in order (empty: False).
 _FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
 
 
-def _frame_bytes(k: int) -> int:
-    """Bytes of a frame's arrays cut after ``k`` slots (seven float rows, the leader ids and
-    four flags), rounded up to 8 so every frame starts aligned."""
-    return -(-(8 * (len(_EMPTY_FLOATS) + 1) + len(_FLAG_ROWS)) * k // 8) * 8
+def _frame_bytes(k: int, m: int) -> int:
+    """Bytes of a frame's arrays: the collision speeds and the four flags of the slots cut
+    after ``k``, and the speeds, leader distances and leader codes of its ``m`` vehicles,
+    rounded up to 8 so every frame starts aligned."""
+    return -(-((8 + len(_FLAG_ROWS)) * k + 24 * m) // 8) * 8
 
 
 def _ring_bytes(n_pairs: int) -> int:
     """Bytes of the ring of a source of ``n_pairs`` slots (see :data:`RING_BYTES`)."""
-    return max(RING_BYTES, 16 * _frame_bytes(n_pairs))
+    return max(RING_BYTES, 16 * _frame_bytes(n_pairs, n_pairs))
 
 
 class _FrameRing:
@@ -145,35 +146,35 @@ class _FrameRing:
         offset = position % self.size
         return position if offset + nbytes <= self.size else position + self.size - offset
 
-    def write(self, position: int, frame: tuple[np.ndarray, ...], k: int) -> None:
-        """Write the first ``k`` slots of a frame's arrays (the arguments of :func:`_pack`
-        after ``k``) at ``position``."""
-        _pack(*self._views, position % self.size, k, *frame)
+    def write(self, position: int, frame: tuple[np.ndarray, ...], k: int, m: int) -> None:
+        """Write a frame's arrays (the arguments of :func:`_pack` after ``m``: its first ``k``
+        slots, its ``m`` vehicles) at ``position``."""
+        _pack(*self._views, position % self.size, k, m, *frame)
 
-    def read(self, position: int, k: int, empty: np.ndarray) -> tuple[np.ndarray, ...]:
-        """A copy of the frame of ``k`` slots written at ``position``, its ``(N,)`` arrays
-        filled beyond them with the values of an empty slot (``empty``: the float rows', the
-        flags False and the leader -1): the float rows, the leader ids and the flags."""
-        return _unpack(*self._views, position % self.size, k, empty)
+    def read(self, position: int, k: int, m: int, n: int) -> tuple[np.ndarray, ...]:
+        """A copy of the frame of ``k`` slots and ``m`` vehicles written at ``position``: the
+        ``(n,)`` collision speeds (NaN beyond ``k``), the ``(m,)`` speeds, leader distances
+        and leader codes, and the ``(4, n)`` flags (False beyond ``k``)."""
+        return _unpack(*self._views, position % self.size, k, m, n)
 
 
 @njit(cache=True)
 def _pack(
-    floats, ints, flags, offset, k, block, collision_speed, leader_id, active, reassigned,
+    floats, ints, flags, offset, k, m, collision_speed, speed, dists, codes, active, reassigned,
     collided, inattentive,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """Write the first ``k`` slots of a frame at byte ``offset`` (a multiple of 8) of the
-    ring, whose memory ``floats``, ``ints`` and ``flags`` view as float64, int64 and bool:
-    the rows of ``block`` then ``collision_speed`` (the float rows, :data:`_EMPTY_FLOATS`),
-    ``leader_id``, then the flags ``active``, ``reassigned``, ``collided`` and ``inattentive
-    & active`` (:data:`_FLAG_ROWS`), each row after the other (:func:`_frame_bytes`)."""
+    """Write a frame at byte ``offset`` (a multiple of 8) of the ring, whose memory
+    ``floats``, ``ints`` and ``flags`` view as float64, int64 and bool, each row after the
+    other (:func:`_frame_bytes`): the first ``k`` slots' ``collision_speed``, the ``m``
+    vehicles' ``speed``, ``dists`` and ``codes`` (:meth:`acc_fusion.sumo.SumoSource._fill`),
+    then the first ``k`` slots' flags ``active``, ``reassigned``, ``collided`` and
+    ``inattentive & active`` (:data:`_FLAG_ROWS`)."""
     at = offset // 8
-    for row in range(block.shape[0]):
-        floats[at : at + k] = block[row, :k]
-        at += k
     floats[at : at + k] = collision_speed[:k]
-    ints[at + k : at + 2 * k] = leader_id[:k]
-    at = 8 * (at + 2 * k)
+    floats[at + k : at + k + m] = speed
+    floats[at + k + m : at + k + 2 * m] = dists
+    ints[at + k + 2 * m : at + k + 3 * m] = codes
+    at = 8 * (at + k + 3 * m)
     flags[at : at + k] = active[:k]
     flags[at + k : at + 2 * k] = reassigned[:k]
     flags[at + 2 * k : at + 3 * k] = collided[:k]
@@ -181,24 +182,22 @@ def _pack(
 
 
 @njit(cache=True)
-def _unpack(floats, ints, flags, offset, k, empty):  # pragma: no cover - compiled
-    """The ``(F, N)`` float rows, ``(N,)`` leader ids and ``(4, N)`` flags of a frame that
-    :func:`_pack` wrote at ``offset`` for its first ``k`` slots, copied out of the ring; the
-    slots beyond hold an empty slot's values (``empty``: ``(F, N)`` float rows)."""
-    n_float, n = empty.shape
-    values = empty.copy()
-    leader_id = np.full(n, -1, dtype=np.int64)
+def _unpack(floats, ints, flags, offset, k, m, n):  # pragma: no cover - compiled
+    """The arrays of a frame that :func:`_pack` wrote at ``offset``, copied out of the ring:
+    the ``(n,)`` collision speeds (NaN beyond ``k``), the ``(m,)`` speeds, leader distances
+    and leader codes, and the ``(4, n)`` flags (False beyond ``k``)."""
+    collision_speed = np.full(n, np.nan)
     slot_flags = np.zeros((4, n), dtype=np.bool_)
     at = offset // 8
-    for row in range(n_float):
-        values[row, :k] = floats[at : at + k]
-        at += k
-    leader_id[:k] = ints[at : at + k]
-    at = 8 * (at + k)
+    collision_speed[:k] = floats[at : at + k]
+    speed = floats[at + k : at + k + m].copy()
+    dists = floats[at + k + m : at + k + 2 * m].copy()
+    codes = ints[at + k + 2 * m : at + k + 3 * m].copy()
+    at = 8 * (at + k + 3 * m)
     for row in range(4):
         slot_flags[row, :k] = flags[at : at + k]
         at += k
-    return values, leader_id, slot_flags
+    return collision_speed, speed, dists, codes, slot_flags
 
 
 class _RingWriter:
@@ -210,14 +209,14 @@ class _RingWriter:
         self._ring, self._conn, self._outbox = ring, conn, outbox
         self._head = self._returned = 0
 
-    def write(self, frame: tuple[np.ndarray, ...], k: int) -> int:
-        """Write a frame's arrays (:meth:`_FrameRing.write`, cut after ``k`` slots); returns
-        its position."""
-        nbytes = _frame_bytes(k)
+    def write(self, frame: tuple[np.ndarray, ...], k: int, m: int) -> int:
+        """Write a frame's arrays (:meth:`_FrameRing.write`: ``k`` slots, ``m`` vehicles);
+        returns its position."""
+        nbytes = _frame_bytes(k, m)
         start = self._ring.place(self._head, nbytes)
         while start + nbytes - self._returned > self._ring.size:
             self._await_room()
-        self._ring.write(start, frame, k)
+        self._ring.write(start, frame, k, m)
         self._head = start + nbytes
         return start
 
@@ -238,12 +237,16 @@ class _RingWriter:
 class _Snapshots:
     """The frame messages of a source, step by step (the child's side of :meth:`_take`).
 
-    The ``(N,)`` arrays go into the ring (:class:`_RingWriter`): the seven float rows, the
-    leader ids and the four flags, each cut after the last slot that holds a vehicle, a new
-    vehicle or a collision flag (the slots beyond hold the values of an empty slot, which
-    the parent fills in); the message gives their position.  The slot ids travel as the
-    slots whose id changed, found among the slots that got a new vehicle or lost theirs
-    since the last message (the only ways a slot's id changes).
+    A message carries what the parent makes the frame of (with its own
+    :class:`~acc_fusion.sumo.FrameMaker`): the values the source read
+    (:meth:`~acc_fusion.sumo.SumoSource._fill`), the slots taken at the step and the slot
+    flags.  The arrays go into the ring (:class:`_RingWriter`): the vehicles' speeds, leader
+    distances and leader codes, then the collision speeds and the four flags cut after the
+    last slot that holds a vehicle, a new vehicle or a collision flag (the slots beyond hold
+    the values of an empty slot, which the parent fills in); the message gives their
+    position.  The slot ids travel as the slots whose id changed, found among the slots that
+    got a new vehicle or lost theirs since the last message (the only ways a slot's id
+    changes).
     """
 
     def __init__(self, n_pairs: int, ring: _RingWriter) -> None:
@@ -253,8 +256,7 @@ class _Snapshots:
 
     def __call__(self, src: SumoSource, caught: list) -> tuple:
         """The message of ``src``'s current step, with the warnings ``caught`` during it,
-        its arrays written into the ring from the source's own (no copies): the frame's
-        block of float rows (:func:`acc_fusion.sumo._frame_arrays`) and the slot flags."""
+        its arrays written into the ring from the source's own (no copies)."""
         active = src._active  # replaced, never changed in place
         reassigned, collided = src._reassigned, src._collided
         k, candidates = _extent(active, reassigned, collided, self._was_active)
@@ -264,14 +266,18 @@ class _Snapshots:
             if ids[i] != known[i]:
                 changed[i] = known[i] = ids[i]
         self._was_active = active
-        arrays = (src._block, src._collision_speed, src._leader, active, reassigned, collided)
-        position = self._ring.write((*arrays, src._inattentive), k)
+        _, speed, dists, codes, others, _ = src._raw
+        arrays = (src._collision_speed, speed, dists, codes, active, reassigned, collided)
+        position = self._ring.write((*arrays, src._inattentive), k, speed.size)
         return (
             "frame",
             src.t,
             k,
+            speed.size,
             position,
             changed,
+            src._news,
+            others,
             src.done,
             _counts(src),
             [(w.category, str(w.message)) for w in caught],
@@ -466,7 +472,7 @@ class BackgroundSumoSource(SlotSource):
             self.dt, self.begin, self.end_time = meta["dt"], meta["begin"], meta["end_time"]
             self.n_pairs, self._n_steps = meta["n_pairs"], meta["n_steps"]
             self._vehicle_ids: list[str | None] = [None] * self.n_pairs
-            self._empty_floats = np.array(_EMPTY_FLOATS)[:, None].repeat(self.n_pairs, axis=1)
+            self._maker = FrameMaker(self.n_pairs, self.dt, float(config.lookahead))
             self._k = 0
             self._take(self._receive("frame"))
         except BaseException:
@@ -497,14 +503,16 @@ class BackgroundSumoSource(SlotSource):
         return message
 
     def _take(self, message: tuple) -> None:
-        """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring and
-        fill in the empty slots beyond them."""
-        (_, t, k, position, ids, done, counts, caught) = message
-        floats, leader_id, flags = self._ring.read(position, k, self._empty_floats)
-        self._give_back(position + _frame_bytes(k))
-        *values, self._collision_speed = floats
-        self._frame = TruthFrame.from_arrays(t, *values[:5], leader_id, lateral_offset=values[5])
+        """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring, fill
+        in the empty slots beyond them and make the frame."""
+        (_, t, k, m, position, ids, news, others, done, counts, caught) = message
+        self._collision_speed, speed, dists, codes, flags = self._ring.read(
+            position, k, m, self.n_pairs
+        )
+        self._give_back(position + _frame_bytes(k, m))
         self._active, self._reassigned, self._collided, self._inattentive = flags
+        slots = np.flatnonzero(self._active)
+        self._frame = self._maker.make(t, slots, speed, dists, codes, news, others)
         self._done = done
         for slot, vehicle in ids.items():
             self._vehicle_ids[slot] = vehicle

@@ -2,12 +2,13 @@
 
 Runs the loop of :class:`acc_fusion.sumo_background.BackgroundSumoSource`'s child in this
 process (``--repeat`` times, each in a fresh process: libsumo runs one simulation per
-process): SUMO's step, the source's reads and frame, the frame's arrays written into a ring
-of shared memory (:class:`~acc_fusion.sumo_background._Snapshots`, the parent's room given
-back at once) and the message pickled and written (to ``/dev/null``). It times SUMO's step,
-the compiled reader's call (``reads``; 0 where the reader is not available), the rest of
-the source's frame (``frame``), the ring (``snapshot``), the message (``message``) and
-everything else (``rest``: events, slot bookkeeping, stepping), and prints each run's
+process): SUMO's step, the source's reads, their arrays written into a ring of shared memory
+(:class:`~acc_fusion.sumo_background._Snapshots`, the parent's room given back at once) and
+the message pickled and written (to ``/dev/null``); the parent makes the frames.  It times
+SUMO's step, the compiled reader's call (``reads``; 0 where the reader is not available),
+the rest of the source's reading (``fill``: the arrays, the leaders without a slot), the
+ring (``snapshot``), the message (``message``) and everything else (``rest``: events, slot
+bookkeeping, stepping), and prints each run's
 fractions of the step's time and, last, ``besides_step=<median of the runs' totals>``.
 This is the child's share of ``overhead_ratio`` in ``scripts/bench_sumo.py``, measured
 without the other process and with a smaller spread than the bench's wall times.
@@ -27,7 +28,7 @@ from statistics import median
 
 from acc_fusion.traffic import bundled_nets
 
-PARTS = ("reads", "frame", "snapshot", "message", "rest")
+PARTS = ("reads", "fill", "snapshot", "message", "rest")
 
 
 def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
@@ -43,7 +44,7 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
         def _await_room(self) -> None:
             self._returned = self._head
 
-    spent = dict.fromkeys(("step", "fill", *PARTS), 0.0)
+    spent = dict.fromkeys(("step", "reading", *PARTS), 0.0)
 
     def timed(func, key):
         def call(*args):
@@ -65,7 +66,7 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
     try:
         if src._native is not None:
             src._native = Reader(src._native)
-        src._fill = timed(src._fill, "fill")
+        src._fill = timed(src._fill, "reading")
         size = bg._ring_bytes(src.n_pairs)
         ring = bg._FrameRing(bg._FrameRing.create(size), size)
         snapshot = timed(bg._Snapshots(src.n_pairs, NoParent(ring, None, None)), "snapshot")
@@ -84,8 +85,8 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
         libsumo._libsumo.simulation_step = raw_step
         src.close()
     step = spent["step"]
-    spent["frame"] = spent["fill"] - spent["reads"]
-    spent["rest"] = total - step - spent["fill"] - spent["snapshot"] - spent["message"]
+    spent["fill"] = spent["reading"] - spent["reads"]
+    spent["rest"] = total - step - spent["reading"] - spent["snapshot"] - spent["message"]
     return 1e6 * step / max(steps, 1), {k: spent[k] / step for k in PARTS}
 
 

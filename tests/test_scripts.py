@@ -90,7 +90,7 @@ def test_profile_sumo_process_prints_the_parts_and_their_total():
     out = run("profile_sumo_process.py", "--net", "ring", "--end", "20", "--repeat", "1").stdout
     line, last = out.strip().splitlines()
     number = r"[0-9]+\.[0-9]{3}"
-    parts = ", ".join(f"{p} ({number})" for p in ("reads", "frame", "snapshot", "message", "rest"))
+    parts = ", ".join(f"{p} ({number})" for p in ("reads", "fill", "snapshot", "message", "rest"))
     match = re.fullmatch(rf"run 1: SUMO step [0-9]+ µs; {parts}; total ({number})", line)
     assert match, line
     *shares, total = (float(x) for x in match.groups())

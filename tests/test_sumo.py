@@ -140,10 +140,13 @@ def test_route_error_after_the_net_loaded_leaves_the_process_usable(road, tmp_pa
 
 
 # ---------------------------------------------------------------- one simulation each
-def test_frames_shapes_and_gap_geometry(road):
-    with SumoSource(config(road, end=40.0, seed=1)) as src:
+@pytest.mark.parametrize("penetration", [1.0, 0.5])
+def test_frames_shapes_and_gap_geometry(road, penetration):
+    """Every kept leader's gap, speed and acceleration are SUMO's; at a partial penetration,
+    also those of the leaders that hold no slot (read with their own getters)."""
+    with SumoSource(config(road, end=40.0, seed=1, penetration=penetration)) as src:
         assert src.dt == pytest.approx(0.1) and src.n_steps == 400
-        n, checked, steps = src.n_pairs, 0, 0
+        n, checked, steps, slotless = src.n_pairs, 0, 0, 0
         frame = src.frame()
         while not src.done:
             frame = src.advance()
@@ -166,12 +169,14 @@ def test_frames_shapes_and_gap_geometry(road):
                 assert frame.lead_accel[slot] == pytest.approx(
                     libsumo.vehicle.getAcceleration(leader[0]), abs=1e-9
                 )
+                slotless += leader[0] not in ids
             for slot in np.flatnonzero(active):
                 assert frame.ego_accel[slot] == pytest.approx(
                     libsumo.vehicle.getAcceleration(ids[slot]), abs=1e-9
                 )
         assert steps == 400 and src.t == pytest.approx(40.0)
-        assert checked > 500 and src.active.sum() > 5
+        assert checked > 2000 and src.active.sum() > 5
+        assert (slotless > 500) == (penetration < 1)
         assert np.all(frame.gap[frame.has_leader] <= 250.0)
 
 
@@ -539,21 +544,21 @@ def test_the_childs_outbox_writes_frames_in_batches_or_at_once_when_told():
 
 
 def test_a_frame_written_into_the_ring_reads_back_with_empty_slots_beyond_its_extent():
-    n, k = 16, 5
+    n, k, m = 16, 5, 3
     rng = np.random.default_rng(0)
-    block, collision_speed = rng.normal(size=(6, n)), rng.normal(size=n)
-    leader_id = rng.integers(-1, 100, n)
+    collision_speed, speed, dists = rng.normal(size=n), rng.normal(size=m), rng.normal(size=m)
+    codes = rng.integers(-1, 100, m)
     active, reassigned, collided, inattentive = rng.random((4, n)) < 0.5
-    size = 4 * background_mod._frame_bytes(n)
+    size = 4 * background_mod._frame_bytes(n, n)
     ring = background_mod._FrameRing(background_mod._FrameRing.create(size), size)
-    empty = np.array(background_mod._EMPTY_FLOATS)[:, None].repeat(n, axis=1)
-    position = ring.place(size + 8, background_mod._frame_bytes(k))  # past a wrap
-    frame = (block, collision_speed, leader_id, active, reassigned, collided, inattentive)
-    ring.write(position, frame, k)
-    floats, leaders, flags = ring.read(position, k, empty)
-    np.testing.assert_array_equal(floats[:, :k], np.vstack([block, collision_speed])[:, :k])
-    np.testing.assert_array_equal(floats[:, k:], empty[:, k:])
-    np.testing.assert_array_equal(leaders, np.where(np.arange(n) < k, leader_id, -1))
+    position = ring.place(size + 8, background_mod._frame_bytes(k, m))  # past a wrap
+    frame = (collision_speed, speed, dists, codes, active, reassigned, collided, inattentive)
+    ring.write(position, frame, k, m)
+    collisions, *values, flags = ring.read(position, k, m, n)
+    np.testing.assert_array_equal(collisions, np.where(np.arange(n) < k, collision_speed, np.nan))
+    for got, sent in zip(values, (speed, dists, codes), strict=True):
+        np.testing.assert_array_equal(got, sent)
+        assert got.dtype == sent.dtype
     expected = np.vstack([active, reassigned, collided, inattentive & active])
     np.testing.assert_array_equal(flags, np.where(np.arange(n) < k, expected, False))
 
@@ -567,7 +572,7 @@ def test_a_full_ring_makes_the_child_wait_and_the_frames_stay_exact(waves, monke
     with SumoSource(cfg) as src:
         inline = trace(src)
     with BackgroundSumoSource(cfg) as src:
-        assert src._ring.size == 16 * background_mod._frame_bytes(64)
+        assert src._ring.size == 16 * background_mod._frame_bytes(64, 64)
         time.sleep(0.5)  # the child fills the ring and waits
         background = trace(src)
         assert src._returned > 20 * src._ring.size
