@@ -34,7 +34,6 @@ range-rate, :math:`Z = H X + W` with :math:`H = [I_2\ 0]`.
 from __future__ import annotations
 
 import numpy as np
-from filterpy.common import Q_discrete_white_noise
 
 from acc_fusion.validation import check_range
 
@@ -63,6 +62,10 @@ def ca_process_noise(dt: float, jerk_std: float) -> np.ndarray:
 
     ``jerk_std`` is :math:`\sigma_j` in m/s³.
     """
+    # Imported here: filterpy brings scipy.stats (about 0.8 s), which the truth sources
+    # (SUMO's child process among them) import this module without needing.
+    from filterpy.common import Q_discrete_white_noise
+
     dt = check_range("dt", dt, 0.0, lo_open=True)
     jerk_std = check_range("jerk_std", jerk_std, 0.0)
     return np.asarray(Q_discrete_white_noise(dim=3, dt=dt, var=(jerk_std * dt) ** 2), dtype=float)

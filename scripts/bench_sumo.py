@@ -50,8 +50,6 @@ from statistics import median
 
 from tqdm import tqdm
 
-from acc_fusion.traffic import bundled_nets
-
 
 def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     """Wall time of SUMO alone (with ``reads``: plus every vehicle's speed and leader at every
@@ -169,6 +167,10 @@ def main(argv: list[str] | None = None) -> None:
         "--inline", action="store_true", help="SUMO in the pipeline's process (no child)"
     )
     args = parser.parse_args(argv)
+    # Here, not at the top: the worker processes import this script, and the traffic module
+    # brings the whole pipeline with it (a second or more per worker).
+    from acc_fusion.traffic import bundled_nets
+
     nets = bundled_nets()
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")

@@ -26,8 +26,6 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from statistics import median
 
-from acc_fusion.traffic import bundled_nets
-
 PARTS = ("reads", "fill", "snapshot", "message", "rest")
 
 
@@ -96,6 +94,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--end", type=float, default=200.0, help="simulated seconds (200)")
     parser.add_argument("--repeat", type=int, default=3, help="runs, median total (default 3)")
     args = parser.parse_args(argv)
+    # Here, not at the top: the worker processes import this script, and the traffic module
+    # brings the whole pipeline with it (a second or more per worker).
+    from acc_fusion.traffic import bundled_nets
+
     nets = bundled_nets()
     if args.net not in nets:
         parser.error(f"--net must be one of {', '.join(nets)}, got {args.net!r}")
