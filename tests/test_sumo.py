@@ -479,7 +479,7 @@ def test_the_child_imports_the_parents_package_whatever_the_working_directory(
 
 
 def test_sumo_s_process_imports_neither_filterpy_nor_scipy_stats():
-    """The child needs neither (about 0.9 s of its start and 45 MB): the modules it imports
+    """The child needs neither (about 0.9 s of its imports and 44 MB): the modules it imports
     (the source's, the truth frame's, the models') must leave them to the filters."""
     code = (
         "import sys, acc_fusion.sumo_background; "
