@@ -20,19 +20,19 @@ run: $(STAMP)
 	$(BIN)/acc-fusion sumo --net motorway --end 300
 
 test: $(STAMP)
-	$(BIN)/ruff check acc_fusion envs scripts tests
-	$(BIN)/ruff format --check acc_fusion envs scripts tests
+	$(BIN)/ruff check acc_fusion scripts tests
+	$(BIN)/ruff format --check acc_fusion scripts tests
 	$(BIN)/pytest -q
 
 test-fast: $(STAMP)
 	$(BIN)/pytest -q -m "not slow"
 
 lint: $(STAMP)
-	$(BIN)/ruff check acc_fusion envs scripts tests
+	$(BIN)/ruff check acc_fusion scripts tests
 
 format: $(STAMP)
-	$(BIN)/ruff format acc_fusion envs scripts tests
-	$(BIN)/ruff check --fix acc_fusion envs scripts tests
+	$(BIN)/ruff format acc_fusion scripts tests
+	$(BIN)/ruff check --fix acc_fusion scripts tests
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_filters.py --quick

@@ -20,6 +20,6 @@ def _register_envs() -> None:
 
 _register_envs()
 
-from acc_fusion.evaluation import evaluate  # noqa: E402
+from acc_fusion.envs.evaluation import evaluate  # noqa: E402
 
 __all__ = ["evaluate"]

@@ -2,7 +2,7 @@
 
 A pair-step is one step of one follower→leader pair through ``FederatedFilter.step``: the
 radar and infrared local Kalman filters, the federated fusion and the chi-square fault test
-(default :class:`~acc_fusion.fdi.FDIConfig`).  Both engines run in the same process on the
+(default :class:`~acc_fusion.fusion.fdi.FDIConfig`).  Both engines run in the same process on the
 same measurements, recorded beforehand so that sensor time is left out (car following,
 radar 20 Hz + infrared 10 Hz, step 0.05 s), at each N of ``--sizes``.  The first
 ``WARMUP_STEPS`` steps of every timed estimator are not timed: they hold numba's compilation
@@ -28,9 +28,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from acc_fusion.fusion import FusionConfig, make_estimator
-from acc_fusion.sensors import Measurement, infrared_spec, radar_spec
-from acc_fusion.studies import (
+from acc_fusion.fusion.estimators import FusionConfig, make_estimator
+from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
+from acc_fusion.studies.estimation import (
     FOLLOWING_FILTER,
     SENSOR_NAMES,
     Table,

@@ -6,7 +6,8 @@ controlled vehicle cruising, nobody braking for warnings) twice in this process:
 * **bare**: highway-env alone, stepped at its simulation frequency as
   ``AbstractEnv._simulate`` does (``road.act()``, ``road.step(dt)``) until highway-env
   terminates the episode or its duration is reached;
-* **pipeline**: the same episodes through :class:`acc_fusion.highway.HighwaySource` with the
+* **pipeline**: the same episodes through :class:`acc_fusion.truth.highway.source.HighwaySource`
+with the
   whole FCW pipeline on every pair (``pairs="all"``: every vehicle and its leader): radar and
   infrared sensors, ego-motion filter, the fusion methods (``--methods federated``, default:
   the federated filter with fault detection; ``--methods all``: radar alone, infrared alone,
@@ -31,8 +32,8 @@ import time
 
 import numpy as np
 
-from acc_fusion.fcw import DEFAULT_METHODS, SimConfig, simulate
-from acc_fusion.highway import (
+from acc_fusion.sim.closed_loop import DEFAULT_METHODS, SimConfig, simulate
+from acc_fusion.truth.highway.source import (
     DEFAULT_DURATION,
     SUPPORTED,
     HighwayConfig,
@@ -84,7 +85,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeat", type=int, default=2, help="runs of each, best counts (2)")
     parser.add_argument("--quick", action="store_true", help="2 episodes of 10 s")
     args = parser.parse_args(argv)
-    from acc_fusion.kalman import warmup
+    from acc_fusion.filters.kalman import warmup
 
     config = HighwayConfig(
         env=args.env,

@@ -1,21 +1,22 @@
 """Benchmark: the cost of the FCW pipeline on top of a SUMO traffic simulation.
 
 Runs the same SUMO scenario (the bundled motorway, >= 500 vehicles at peak, with the SUMO
-options of :func:`acc_fusion.sumo.sumo_command`) in four ways, each in a fresh process
+options of :func:`acc_fusion.truth.sumo.source.sumo_command`) in four ways, each in a fresh process
 (libsumo allows one simulation per process), one after the other: ``--repeat`` (3) pairs of a
 bare run and a pipeline run back to back, then one reads run and one source run:
 
 * **bare**: SUMO alone, ``simulationStep`` in a loop;
 * **reads**: SUMO plus only what any libsumo design must read per step: the speed and the
   leader (``getSpeed``, ``getLeader``) of every vehicle, the way the source reads them (the
-  compiled reader of :mod:`acc_fusion.native`, else libsumo's raw SWIG functions), with
+  compiled reader of :mod:`acc_fusion.truth.sumo.native`, else libsumo's raw SWIG functions), with
   nothing done with them.  Its ratio to bare is the floor of ``overhead_ratio``: the
   pipeline can overlap SUMO on another core, the reads cannot;
 * **source**: the same background source as the pipeline run below, alone: SUMO in its
   child process streaming frames that this process only receives.  Its ratio to bare is the
   child's share, which bounds ``overhead_ratio`` when the pipeline keeps up;
-* **pipeline**: SUMO through :class:`acc_fusion.sumo_background.BackgroundSumoSource` (the
-  :class:`acc_fusion.sumo.SumoSource` in a child process, streaming its frames ahead: exact
+* **pipeline**: SUMO through :class:`acc_fusion.truth.sumo.background.BackgroundSumoSource` (the
+  :class:`acc_fusion.truth.sumo.source.SumoSource` in a child process, streaming its frames ahead:
+  exact
   in open loop) with the whole FCW pipeline on every equipped vehicle: radar and infrared sensors,
   ego-motion filter, federated fusion with fault detection, warning logic, oracle and
   streaming metrics.  ``--inline`` runs the source in the pipeline's own process instead.
@@ -57,8 +58,8 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     import libsumo
     import numpy as np
 
-    from acc_fusion.native import sumo_reader
-    from acc_fusion.sumo import SumoConfig, sumo_command
+    from acc_fusion.truth.sumo.native import sumo_reader
+    from acc_fusion.truth.sumo.source import SumoConfig, sumo_command
 
     config = SumoConfig(sumocfg=sumocfg, end=end)
     libsumo.start([*sumo_command(config), "--end", str(end)])
@@ -95,8 +96,8 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
 def _source(sumocfg: str, end: float) -> tuple[float]:
     """Wall time of the background source alone, from its first frame to its last, with
     nothing done with the frames."""
-    from acc_fusion.sumo import SumoConfig
-    from acc_fusion.sumo_background import BackgroundSumoSource
+    from acc_fusion.truth.sumo.background import BackgroundSumoSource
+    from acc_fusion.truth.sumo.source import SumoConfig
 
     source = BackgroundSumoSource(SumoConfig(sumocfg=sumocfg, end=end))
     t0 = time.perf_counter()
@@ -127,9 +128,9 @@ def _pipeline(sumocfg: str, end: float, inline: bool) -> tuple[float, int, float
     simultaneously equipped vehicles, the resident memory [MB] of the pipeline's process
     and SUMO's child process together at a quarter of the run and at its end, and the
     pipeline process's CPU time per step [ms]."""
-    from acc_fusion.fcw import SimConfig, simulate
-    from acc_fusion.sumo import SumoConfig, SumoSource
-    from acc_fusion.sumo_background import BackgroundSumoSource
+    from acc_fusion.sim.closed_loop import SimConfig, simulate
+    from acc_fusion.truth.sumo.background import BackgroundSumoSource
+    from acc_fusion.truth.sumo.source import SumoConfig, SumoSource
 
     # Before SUMO starts (a background source would run ahead meanwhile, off the clock):
     # compile, or load from numba's cache, every kernel of the pipeline.
@@ -169,7 +170,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     # Here, not at the top: the worker processes import this script, and the traffic module
     # brings the whole pipeline with it (a second or more per worker).
-    from acc_fusion.traffic import bundled_nets
+    from acc_fusion.studies.traffic import bundled_nets
 
     nets = bundled_nets()
     if args.repeat < 1:

@@ -23,8 +23,8 @@ import argparse
 import tempfile
 import time
 
-from acc_fusion.cli import positive_int
-from acc_fusion.sweep import SweepConfig, run_sweep
+from acc_fusion.cli.main import positive_int
+from acc_fusion.sweep.run import SweepConfig, run_sweep
 
 
 def sweep_config(runs_per_point: int, chunk: int) -> SweepConfig:

@@ -1,7 +1,8 @@
 """Fault tolerance: federated fusion with fault isolation against the centralized filter.
 
-Prints the table of :func:`acc_fusion.studies.fault_tolerance`: car following (radar 20 Hz,
-infrared 10 Hz, 10 s runs) with each fault of :data:`acc_fusion.studies.FAULT_SCENARIOS`
+Prints the table of :func:`acc_fusion.studies.estimation.fault_tolerance`: car following (radar 20
+Hz,
+infrared 10 Hz, 10 s runs) with each fault of :data:`acc_fusion.studies.estimation.FAULT_SCENARIOS`
 active from 3 s to 8 s; per fault and method, the fused-gap RMSE, its ratio to the same
 method's healthy RMSE and how often the chi-square test isolated a sensor.  With ``--plot``,
 writes a grouped bar chart of the ratios (log scale, 1.5 marked).
@@ -13,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from acc_fusion.cli import study_parser
-from acc_fusion.outputs import save_figure_atomic
-from acc_fusion.studies import Table, fault_tolerance
+from acc_fusion.cli.main import study_parser
+from acc_fusion.core.outputs import save_figure_atomic
+from acc_fusion.studies.estimation import Table, fault_tolerance
 
 #: Ratio to the healthy RMSE marked on the plot (a fault-tolerant method stays below it).
 TOLERATED_RATIO = 1.5

@@ -1,9 +1,9 @@
 """Profile: what SUMO's process spends besides SUMO's step, as a fraction of the step.
 
-Runs the loop of :class:`acc_fusion.sumo_background.BackgroundSumoSource`'s child in this
+Runs the loop of :class:`acc_fusion.truth.sumo.background.BackgroundSumoSource`'s child in this
 process (``--repeat`` times, each in a fresh process: libsumo runs one simulation per
 process): SUMO's step, the source's reads, their arrays written into a ring of shared memory
-(:class:`~acc_fusion.sumo_background._Snapshots`, the parent's room given back at once) and
+(:class:`~acc_fusion.truth.sumo.background._Snapshots`, the parent's room given back at once) and
 the message pickled and written (to ``/dev/null``); the parent makes the frames.  It times
 SUMO's step, the compiled reader's call (``reads``; 0 where the reader is not available),
 the rest of the source's reading (``fill``: the arrays, the leaders without a slot), the
@@ -33,8 +33,8 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
     """SUMO's mean step time [µs] and each part's time as a fraction of the step's."""
     import libsumo
 
-    from acc_fusion import sumo_background as bg
-    from acc_fusion.sumo import SumoConfig, SumoSource
+    from acc_fusion.truth.sumo import background as bg
+    from acc_fusion.truth.sumo.source import SumoConfig, SumoSource
 
     class NoParent(bg._RingWriter):
         """The child's ring writer, with the room given back at once (no parent reads)."""
@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     # Here, not at the top: the worker processes import this script, and the traffic module
     # brings the whole pipeline with it (a second or more per worker).
-    from acc_fusion.traffic import bundled_nets
+    from acc_fusion.studies.traffic import bundled_nets
 
     nets = bundled_nets()
     if args.net not in nets:

@@ -1,7 +1,7 @@
 """Reproduce kong2011 §3: radar + infrared local Kalman filters and their federated fusion.
 
 A target closes on a stationary radar and infrared camera at 3 m/s from 100 m, both sampling
-once per second (T = 1 s).  Prints the table of :func:`acc_fusion.studies.kong2011`: over
+once per second (T = 1 s).  Prints the table of :func:`acc_fusion.studies.estimation.kong2011`: over
 ``--runs`` Monte Carlo runs, the RMSE of gap and range-rate of each raw sensor, each local
 Kalman filter and the federated estimate (paper: each local filter beats its raw sensor, the
 fused estimate beats both).  With ``--plot``, writes the paper's figures 3-5 and 7 for run 0
@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acc_fusion.cli import study_parser
-from acc_fusion.outputs import save_figure_atomic
-from acc_fusion.studies import SENSOR_NAMES, kong2011
+from acc_fusion.cli.main import study_parser
+from acc_fusion.core.outputs import save_figure_atomic
+from acc_fusion.studies.estimation import SENSOR_NAMES, kong2011
 
 ESTIMATORS = ("radar KF", "infrared KF", "federated")
 
@@ -38,7 +38,7 @@ class Trace:
     )
 
     def record(self, frame, meas, ests) -> None:
-        """``on_step`` callback of :func:`~acc_fusion.pipeline.run_estimation`."""
+        """``on_step`` callback of :func:`~acc_fusion.sim.estimation.run_estimation`."""
         self.t.append(frame.t)
         self.truth.append(frame.state[0, :2])
         for m in meas:

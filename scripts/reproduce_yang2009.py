@@ -1,10 +1,10 @@
 """Reproduce yang2009 §4: wheel speed + accelerometer with a bias state (the ego filter).
 
-Runs :func:`acc_fusion.ego.simulate_yang2009` (v_i = sin 5t + w_v, var 0.04;
+Runs :func:`acc_fusion.filters.ego.simulate_yang2009` (v_i = sin 5t + w_v, var 0.04;
 a_i = 5 cos 5t - 10 + w_a, var 1; 100 Hz; Q = diag(1e-4, 0), R = 0.04, x0 = 0, P0 = I) and
 prints, per time window, the bias estimate at the window's end and the speed RMSE of the raw
 wheel speed and of the filter.  The bias converges to the accelerometer offset, -10 m/s²,
-within about 0.5 s (see the docstring of acc_fusion.ego for the sign).
+within about 0.5 s (see the docstring of acc_fusion.filters.ego for the sign).
 
     python scripts/reproduce_yang2009.py --seed 1 --plot out/yang2009.png
 """
@@ -15,8 +15,8 @@ import argparse
 
 import numpy as np
 
-from acc_fusion.ego import YANG2009_ACCEL_OFFSET, Yang2009Run, simulate_yang2009
-from acc_fusion.outputs import save_figure_atomic
+from acc_fusion.core.outputs import save_figure_atomic
+from acc_fusion.filters.ego import YANG2009_ACCEL_OFFSET, Yang2009Run, simulate_yang2009
 
 WINDOW_EDGES = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0, 3.0, 4.0)
 

@@ -1,8 +1,9 @@
 """Steady-state (constant-gain) local filter against the full Kalman filter.
 
-Prints the table of :func:`acc_fusion.studies.steady_vs_full` for each sensor asked for: car
+Prints the table of :func:`acc_fusion.studies.estimation.steady_vs_full` for each sensor asked for:
+car
 following, one sensor alone, the constant-gain filter of patent CN103196450A (gain of the
-algebraic Riccati equation, :mod:`acc_fusion.steady_state`) next to the full Kalman filter;
+algebraic Riccati equation, :mod:`acc_fusion.filters.steady_state`) next to the full Kalman filter;
 RMSE during the transient (first 2 s) and in steady state (after 4 s), mean NEES, and the
 cost per pair-step of each, measured in the same run.
 
@@ -11,8 +12,8 @@ cost per pair-step of each, measured in the same run.
 
 from __future__ import annotations
 
-from acc_fusion.cli import study_parser
-from acc_fusion.studies import SENSOR_NAMES, steady_vs_full
+from acc_fusion.cli.main import study_parser
+from acc_fusion.studies.estimation import SENSOR_NAMES, steady_vs_full
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -3,11 +3,12 @@ with the baselines.
 
 PPO learns on ``acc_fusion/CollisionWarning-v0`` as a native vector environment
 (``--num-envs`` copies stepped with array arithmetic, presented to Stable-Baselines3 by
-:class:`acc_fusion.rl.GymVectorToSB3`) for ``--timesteps`` steps or ``--minutes`` of wall-clock
+:class:`acc_fusion.envs.rl.GymVectorToSB3`) for ``--timesteps`` steps or ``--minutes`` of wall-clock
 time, whichever comes first.  The model is saved (``--save``) and then evaluated with
-:mod:`acc_fusion.evaluation` against the baselines of :data:`acc_fusion.policies.BASELINES` on
+:mod:`acc_fusion.envs.evaluation` against the baselines of
+:data:`acc_fusion.envs.policies.BASELINES` on
 the same ``--episodes`` episodes and seeds; the comparison table is printed.  The PPO
-hyper-parameters are :data:`acc_fusion.rl.PPO_DEFAULTS`.
+hyper-parameters are :data:`acc_fusion.envs.rl.PPO_DEFAULTS`.
 
 Needs the ``rl`` extra: ``pip install 'acc_fusion[rl]'``.
 
@@ -20,7 +21,7 @@ The default budget is 1.5 million steps, what about five minutes buy on two shar
 greedy policy usually still never warns; at 400 000 steps (seed 0) it already misses 5 of 21
 threats against never-warn's 21 of 21 and collides in 6 of 20 episodes against 14.  The policy
 scales the observation and adds threat features inside the network
-(:class:`acc_fusion.rl.FCWFeatures`), so the saved model takes raw observations; rewards are
+(:class:`acc_fusion.envs.rl.FCWFeatures`), so the saved model takes raw observations; rewards are
 normalised for training only.  The evaluation runs one episode at a time, as the harness
 does: about 1.2-1.7 s per episode and policy, so 30 episodes of PPO and the seven baselines
 take five minutes more.
@@ -75,7 +76,7 @@ def _positive_float(text: str) -> float:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from acc_fusion.policies import BASELINES
+    from acc_fusion.envs.policies import BASELINES
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -104,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from acc_fusion.policies import BASELINES
+    from acc_fusion.envs.policies import BASELINES
 
     names = [b.strip() for b in args.baselines.split(",") if b.strip()]
     unknown = [b for b in names if b not in BASELINES]
@@ -117,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         import torch
 
-        from acc_fusion.rl import train_ppo
+        from acc_fusion.envs.rl import train_ppo
     except ImportError as exc:
         print(f"Stable-Baselines3 is needed ({exc}): pip install 'acc_fusion[rl]'", file=sys.stderr)
         return 2
@@ -143,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.no_eval:
         return 0
 
-    from acc_fusion.evaluation import comparison_table, evaluate_many
+    from acc_fusion.envs.evaluation import comparison_table, evaluate_many
 
     policies = {"ppo": model, **{name: BASELINES[name] for name in names}}
     t0 = time.perf_counter()

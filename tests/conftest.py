@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.fusion import FilterConfig, FusionConfig, make_estimator
-from acc_fusion.pipeline import run_estimation
-from acc_fusion.sensors import infrared_spec, radar_spec
-from acc_fusion.studies import SENSOR_NAMES, make_sensors
-from acc_fusion.truth import LinearGaussianSource
+from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
+from acc_fusion.sensors.sensor import infrared_spec, radar_spec
+from acc_fusion.sim.estimation import run_estimation
+from acc_fusion.studies.estimation import SENSOR_NAMES, make_sensors
+from acc_fusion.truth.frame import LinearGaussianSource
 
 #: Filter model matched to :func:`linear_gaussian_source`.
 LG_FILTER = FilterConfig(dt=0.05, jerk_std=1.0, init_accel_std=0.5)

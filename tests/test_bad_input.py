@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 from conftest import linear_gaussian_source, linear_sensors
 
-from acc_fusion.config import from_mapping
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.fdi import FDIConfig
-from acc_fusion.fusion import FilterConfig, FusionConfig, make_estimator
-from acc_fusion.sensors import Measurement, radar_spec
-from acc_fusion.studies import SENSOR_NAMES
-from acc_fusion.truth import TruthFrame
+from acc_fusion.core.config import from_mapping
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
+from acc_fusion.fusion.fdi import FDIConfig
+from acc_fusion.sensors.sensor import Measurement, radar_spec
+from acc_fusion.studies.estimation import SENSOR_NAMES
+from acc_fusion.truth.frame import TruthFrame
 
 N = 4
 
@@ -144,7 +144,7 @@ def test_truth_frame_from_arrays_is_the_checked_frame_without_the_checks():
 
 
 def test_estimates_stay_finite_through_dropouts_and_track_loss():
-    from acc_fusion.faults import Fault
+    from acc_fusion.sensors.faults import Fault
 
     n = 50
     src = linear_gaussian_source(n, 0)

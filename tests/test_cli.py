@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from acc_fusion.cli import main
+from acc_fusion.cli.main import main
 
 
 def test_estimation_prints_the_table_and_writes_csv_and_png(tmp_path, capsys):
@@ -34,14 +34,14 @@ def test_unwritable_output_folder_is_a_one_line_error(tmp_path, capsys):
 @pytest.mark.parametrize("args", [["--help"], ["estimation", "--help"]])
 def test_help(args):
     res = subprocess.run(
-        [sys.executable, "-m", "acc_fusion.cli", *args], capture_output=True, text=True
+        [sys.executable, "-m", "acc_fusion.cli.main", *args], capture_output=True, text=True
     )
     assert res.returncode == 0 and "usage: acc-fusion" in res.stdout
 
 
 def test_bad_number_is_reported_by_name():
     res = subprocess.run(
-        [sys.executable, "-m", "acc_fusion.cli", "estimation", "--runs", "-3"],
+        [sys.executable, "-m", "acc_fusion.cli.main", "estimation", "--runs", "-3"],
         capture_output=True,
         text=True,
     )

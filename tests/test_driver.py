@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.driver import Driver, DriverConfig
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.scenarios import G, make_scenario
-from acc_fusion.truth import TruthFrame
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.truth.driver import Driver, DriverConfig
+from acc_fusion.truth.frame import TruthFrame
+from acc_fusion.truth.scripted import G, make_scenario
 
 DT = 0.05
 

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
-from acc_fusion.ego import (
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.filters.ego import (
     SPEED_MEASUREMENT,
     YANG2009_ACCEL_OFFSET,
     EgoFilterConfig,
     EgoMotionFilter,
     simulate_yang2009,
 )
-from acc_fusion.errors import ConfigError, InputError
 
 SEEDS = (0, 1, 2, 3, 4)
 

@@ -10,15 +10,15 @@ import pytest
 pytest.importorskip("highway_env")
 gym = pytest.importorskip("gymnasium")
 
+from conftest import run_episode  # noqa: E402
+
+import acc_fusion  # noqa: E402,F401  (registers the environment)
+from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.envs.collision_warning import (  # noqa: E402
     CollisionWarningEnv,
     CollisionWarningVectorEnv,
     HighwayOptions,
 )
-from conftest import run_episode  # noqa: E402
-
-import acc_fusion  # noqa: E402,F401  (registers the environment)
-from acc_fusion.errors import ConfigError  # noqa: E402
 
 ENV_ID = "acc_fusion/CollisionWarning-v0"
 SHORT = {"duration": 6.0}
@@ -108,9 +108,9 @@ def test_sync_vector_env_runs_one_highway_env_per_copy():
 
 
 def test_harness_and_cli_evaluate_on_the_highway_source(capsys):
-    from acc_fusion.cli import main
-    from acc_fusion.evaluation import evaluate, evaluate_many
-    from acc_fusion.policies import AlwaysWarn, NeverWarn
+    from acc_fusion.cli.main import main
+    from acc_fusion.envs.evaluation import evaluate, evaluate_many
+    from acc_fusion.envs.policies import AlwaysWarn, NeverWarn
 
     never, always = evaluate_many(
         {"never": NeverWarn(), "always": AlwaysWarn()},

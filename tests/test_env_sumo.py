@@ -12,16 +12,16 @@ import pytest
 pytest.importorskip("libsumo")
 gym = pytest.importorskip("gymnasium")
 
+from conftest import run_episode  # noqa: E402
+
+import acc_fusion  # noqa: E402,F401  (registers the environment)
+from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.envs.collision_warning import (  # noqa: E402
     CollisionWarningEnv,
     CollisionWarningVectorEnv,
     SumoOptions,
 )
-from conftest import run_episode  # noqa: E402
-
-import acc_fusion  # noqa: E402,F401  (registers the environment)
-from acc_fusion.errors import ConfigError  # noqa: E402
-from acc_fusion.sumo import SumoError  # noqa: E402
+from acc_fusion.truth.sumo.source import SumoError  # noqa: E402
 
 ENV_ID = "acc_fusion/CollisionWarning-v0"
 RING = {"net": "ring", "warmup": 0.0}
@@ -87,7 +87,7 @@ def test_the_end_of_the_simulation_truncates_and_the_next_reset_restarts(make):
 def test_warnings_make_the_sumo_driver_brake_and_collisions_end_episodes(make):
     """Closed loop: imminent alerts make the ego's driver brake (SUMO is commanded); the
     leader's emergency braking (lead_hazard) makes threats and collisions."""
-    from acc_fusion.policies import NeverWarn, TTCPolicy
+    from acc_fusion.envs.policies import NeverWarn, TTCPolicy
 
     env = make(max_episode_steps=300, warmup=30.0, lead_hazard=1.0)
     speeds = {}
@@ -196,9 +196,9 @@ def test_async_vector_env_runs_one_simulation_per_process():
 
 
 def test_harness_and_cli_evaluate_on_the_sumo_source(capsys):
-    from acc_fusion.cli import main
-    from acc_fusion.evaluation import evaluate_many
-    from acc_fusion.policies import AlwaysWarn, NeverWarn
+    from acc_fusion.cli.main import main
+    from acc_fusion.envs.evaluation import evaluate_many
+    from acc_fusion.envs.policies import AlwaysWarn, NeverWarn
 
     never, always = evaluate_many(
         {"never": NeverWarn(), "always": AlwaysWarn()},

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.errors import ConfigError
-from acc_fusion.fcw import SimConfig, compare, compare_config, conformance, simulate
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.sim.closed_loop import SimConfig, compare, compare_config, conformance, simulate
 
 
 @pytest.fixture(scope="module")
@@ -52,8 +52,8 @@ def test_conformance_passes_every_manoeuvre_with_default_settings():
 
 
 def test_a_late_warning_fails_conformance():
-    from acc_fusion.safety import StoppingDistanceParams
-    from acc_fusion.warning import WarningConfig
+    from acc_fusion.warning.logic import WarningConfig
+    from acc_fusion.warning.safety import StoppingDistanceParams
 
     late = WarningConfig(
         params=StoppingDistanceParams(
@@ -91,7 +91,7 @@ def test_bad_config_is_one_clear_error(kwargs, match):
 
 
 def test_track_inputs_kernel_matches_its_numpy_form():
-    from acc_fusion.fcw import _track_inputs
+    from acc_fusion.sim.closed_loop import _track_inputs
 
     rng = np.random.default_rng(0)
     n = 100

@@ -9,9 +9,9 @@ import pickle
 import numpy as np
 import pytest
 
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.metrics import FCWMetrics
-from acc_fusion.stats import poisson_rate_interval
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.metrics.events import FCWMetrics
+from acc_fusion.metrics.stats import poisson_rate_interval
 
 DT = 0.1
 

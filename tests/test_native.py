@@ -1,4 +1,5 @@
-"""The compiled SUMO reader (acc_fusion.native): built from the installed SUMO wheels, the same
+"""The compiled SUMO reader (acc_fusion.truth.sumo.native): built from the installed SUMO wheels,
+the same
 values as libsumo's Python functions, and a clean fallback where it cannot be built."""
 
 from __future__ import annotations
@@ -12,9 +13,9 @@ import pytest
 
 libsumo = pytest.importorskip("libsumo")
 
-import acc_fusion.native as native  # noqa: E402
-from acc_fusion.sumo import SumoConfig, SumoSource  # noqa: E402
-from acc_fusion.traffic import bundled_nets  # noqa: E402
+import acc_fusion.truth.sumo.native as native  # noqa: E402
+from acc_fusion.studies.traffic import bundled_nets  # noqa: E402
+from acc_fusion.truth.sumo.source import SumoConfig, SumoSource  # noqa: E402
 
 BUILDS_HERE = sys.platform.startswith("linux") and bool(shutil.which("c++") or shutil.which("g++"))
 

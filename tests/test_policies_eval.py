@@ -10,17 +10,16 @@ import pytest
 
 pytest.importorskip("gymnasium")
 
+from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.envs.collision_warning import OBS_FIELDS  # noqa: E402
-
-from acc_fusion.errors import ConfigError, InputError  # noqa: E402
-from acc_fusion.evaluation import (  # noqa: E402
+from acc_fusion.envs.evaluation import (  # noqa: E402
     add_evaluate_parser,
     episode_seed,
     evaluate,
     evaluate_many,
     load_policy,
 )
-from acc_fusion.policies import (  # noqa: E402
+from acc_fusion.envs.policies import (  # noqa: E402
     BASELINES,
     AlwaysWarn,
     NeverWarn,
@@ -31,8 +30,8 @@ from acc_fusion.policies import (  # noqa: E402
     WarningLogicPolicy,
     obs_field,
 )
-from acc_fusion.safety import safety_distances  # noqa: E402
-from acc_fusion.warning import WarningConfig  # noqa: E402
+from acc_fusion.warning.logic import WarningConfig  # noqa: E402
+from acc_fusion.warning.safety import safety_distances  # noqa: E402
 
 
 def make_obs(**fields) -> np.ndarray:
@@ -252,7 +251,7 @@ def forget_modules():
 
 def test_load_policy_from_specs(tmp_path, monkeypatch, forget_modules):
     assert load_policy("ttc") is BASELINES["ttc"]
-    assert isinstance(load_policy("acc_fusion.policies:TTCPolicy"), TTCPolicy)
+    assert isinstance(load_policy("acc_fusion.envs.policies:TTCPolicy"), TTCPolicy)
     (tmp_path / "my_rules.py").write_text(
         "def policy(obs):\n    return 2 if obs[0] < 10 else 0\n\n"
         "def make():\n    return lambda obs: 1\n\n"
@@ -317,11 +316,11 @@ def run_command(argv):
 
 
 def test_evaluate_command_prints_the_table_and_writes_files(tmp_path, capsys):
-    argv = ["--policy", "acc_fusion.policies:NeverWarn", "--policy", "ttc", "--episodes", "1"]
+    argv = ["--policy", "acc_fusion.envs.policies:NeverWarn", "--policy", "ttc", "--episodes", "1"]
     assert run_command([*argv, "--seed", "2", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "Warning policies: 1 episodes of 'random'" in out
-    assert "acc_fusion.policies:NeverWarn" in out and "fa_per_hour" in out
+    assert "acc_fusion.envs.policies:NeverWarn" in out and "fa_per_hour" in out
     csv = (tmp_path / "evaluate.csv").read_text().splitlines()
     assert csv[0].startswith("policy,warnings,false_alarms") and len(csv) == 3
     assert (tmp_path / "evaluate.json").stat().st_size > 100
@@ -341,7 +340,7 @@ def test_evaluate_command_errors(argv, message):
 
 
 def test_evaluate_command_through_the_cli_is_one_line(capsys):
-    from acc_fusion.cli import main
+    from acc_fusion.cli.main import main
 
     try:
         code = main(["evaluate", "--policy", "nope:x", "--episodes", "1"])

@@ -14,17 +14,17 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from acc_fusion.envs.collision_warning import (  # noqa: E402
-    CollisionWarningEnv,
-)
 from stable_baselines3.common.env_checker import check_env  # noqa: E402
 from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
 
 import acc_fusion  # noqa: E402, F401  (registers the environment)
-from acc_fusion.errors import ConfigError  # noqa: E402
-from acc_fusion.evaluation import evaluate, evaluate_many, load_policy  # noqa: E402
-from acc_fusion.policies import NeverWarn  # noqa: E402
-from acc_fusion.rl import (  # noqa: E402
+from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.envs.collision_warning import (  # noqa: E402
+    CollisionWarningEnv,
+)
+from acc_fusion.envs.evaluation import evaluate, evaluate_many, load_policy  # noqa: E402
+from acc_fusion.envs.policies import NeverWarn  # noqa: E402
+from acc_fusion.envs.rl import (  # noqa: E402
     ENV_ID,
     BoxScaler,
     GymVectorToSB3,

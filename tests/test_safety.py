@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.safety import (
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.warning.safety import (
     SAFETY_MODELS,
     BerkeleyParams,
     HondaParams,

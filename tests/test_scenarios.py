@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.protocols import REQUIREMENTS, requirement
-from acc_fusion.scenarios import (
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.metrics.protocols import REQUIREMENTS, requirement
+from acc_fusion.truth.scripted import (
     KMH,
     MPH,
     OVERLAP_OFFSET,

@@ -1,4 +1,5 @@
-"""Tests of the sensor models (acc_fusion.sensors) and the fault injection (acc_fusion.faults)."""
+"""Tests of the sensor models (acc_fusion.sensors.sensor) and the fault injection
+(acc_fusion.sensors.faults)."""
 
 from __future__ import annotations
 
@@ -8,16 +9,16 @@ import time
 import numpy as np
 import pytest
 
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.faults import FAULT_KINDS, Fault
-from acc_fusion.sensors import (
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.sensors.faults import FAULT_KINDS, Fault
+from acc_fusion.sensors.sensor import (
     InfraredSensor,
     RadarSensor,
     Sensor,
     infrared_spec,
     radar_spec,
 )
-from acc_fusion.truth import TruthFrame
+from acc_fusion.truth.frame import TruthFrame
 
 DT = 0.05
 EGO = 25.0
@@ -448,7 +449,7 @@ def test_measure_is_vectorised_over_pairs():
 
 @pytest.mark.parametrize("lateral", [False, True])
 def test_one_pass_kernel_equals_observe_then_emit(lateral):
-    from acc_fusion.sensors import _emit, _observe, _observe_emit
+    from acc_fusion.sensors.sensor import _emit, _observe, _observe_emit
 
     rng = np.random.default_rng(1)
     n = 300

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.errors import ConfigError
-from acc_fusion.metrics import FCWMetrics
-from acc_fusion.slots import Extent
-from acc_fusion.warning import WarningConfig, WarningLogic
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.slots import Extent
+from acc_fusion.metrics.events import FCWMetrics
+from acc_fusion.warning.logic import WarningConfig, WarningLogic
 
 
 def test_resize_parks_the_tail_and_growing_back_restores_it():
@@ -54,7 +54,7 @@ def test_extent_covers_the_active_slots_and_those_active_a_step_ago():
 
 
 def test_pair_mask_takes_a_mask_indices_or_none():
-    from acc_fusion.slots import pair_mask
+    from acc_fusion.core.slots import pair_mask
 
     mask = np.array([False, True, False, True])
     assert np.array_equal(pair_mask(mask, 4), mask)

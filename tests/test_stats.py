@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.stats import binomtest, poisson
 
-from acc_fusion.errors import AccFusionError, InputError
-from acc_fusion.stats import Histogram, Rate, poisson_rate_interval, wilson_interval
+from acc_fusion.core.errors import AccFusionError, InputError
+from acc_fusion.metrics.stats import Histogram, Rate, poisson_rate_interval, wilson_interval
 
 
 @pytest.mark.parametrize("confidence", [0.9, 0.95, 0.99])

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
-from acc_fusion.ego import EgoFilterConfig
-from acc_fusion.errors import ConfigError, InputError
-from acc_fusion.models import MEASUREMENT_MATRIX, ca_process_noise, ca_transition
-from acc_fusion.steady_state import (
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.filters.ego import EgoFilterConfig
+from acc_fusion.filters.models import MEASUREMENT_MATRIX, ca_process_noise, ca_transition
+from acc_fusion.filters.steady_state import (
     TiltExampleConfig,
     TiltExampleRun,
     continuous_steady_state_gain,

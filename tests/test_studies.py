@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from acc_fusion import studies
+from acc_fusion.studies import estimation as studies
 
 
 def test_kong2011_local_filters_beat_raw_and_federated_beats_both():

@@ -23,14 +23,14 @@ import pytest
 
 libsumo = pytest.importorskip("libsumo")
 
-import acc_fusion.fcw as fcw  # noqa: E402
-import acc_fusion.sumo as sumo_mod  # noqa: E402
-import acc_fusion.sumo_background as background_mod  # noqa: E402
-from acc_fusion.errors import ConfigError  # noqa: E402
-from acc_fusion.fcw import SimConfig, simulate  # noqa: E402
-from acc_fusion.slots import Extent  # noqa: E402
-from acc_fusion.sumo import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
-from acc_fusion.sumo_background import COUNTERS, BackgroundSumoSource, _Outbox  # noqa: E402
+import acc_fusion.sim.closed_loop as fcw  # noqa: E402
+import acc_fusion.truth.sumo.background as background_mod  # noqa: E402
+import acc_fusion.truth.sumo.source as sumo_mod  # noqa: E402
+from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.core.slots import Extent  # noqa: E402
+from acc_fusion.sim.closed_loop import SimConfig, simulate  # noqa: E402
+from acc_fusion.truth.sumo.background import COUNTERS, BackgroundSumoSource, _Outbox  # noqa: E402
+from acc_fusion.truth.sumo.source import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
 
 ROUTES = """<routes>
   <vType id="car" length="4.5" minGap="2.5" accel="2.6" decel="4.5" sigma="0.5" tau="1.0"/>
@@ -482,7 +482,7 @@ def test_sumo_s_process_imports_neither_filterpy_nor_scipy_stats():
     """The child needs neither (about 0.9 s of its imports and 44 MB): the modules it imports
     (the source's, the truth frame's, the models') must leave them to the filters."""
     code = (
-        "import sys, acc_fusion.sumo_background; "
+        "import sys, acc_fusion.truth.sumo.background; "
         "print([m for m in ('filterpy', 'scipy.stats') if m in sys.modules])"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -623,8 +623,8 @@ def test_a_script_without_a_main_guard_can_use_it(road, tmp_path):
     script.write_text(
         textwrap.dedent(
             f"""
-            from acc_fusion.sumo import SumoConfig
-            from acc_fusion.sumo_background import BackgroundSumoSource
+            from acc_fusion.truth.sumo.source import SumoConfig
+            from acc_fusion.truth.sumo.background import BackgroundSumoSource
             src = BackgroundSumoSource(SumoConfig({str(road / "road.sumocfg")!r}, end=2.0))
             while not src.done:
                 src.advance()

@@ -14,12 +14,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from acc_fusion.cli import main
-from acc_fusion.config import from_mapping
-from acc_fusion.errors import AccFusionError, ConfigError
-from acc_fusion.fcw import SimConfig, simulate
-from acc_fusion.sweep import SweepConfig, load_sweep, run_sweep
-from acc_fusion.sweep_executors import check_address
+from acc_fusion.cli.main import main
+from acc_fusion.core.config import from_mapping
+from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.sweep.executors import check_address
+from acc_fusion.sweep.run import SweepConfig, load_sweep, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -198,7 +198,7 @@ def test_report_files(small, tmp_path):
     text = (out / "report.md").read_text()
     assert "![ROC and DET curves](roc.png)" in text and "| radar:spikes |" in text
     assert "as warning.z varies" in text
-    from acc_fusion.report import write_report
+    from acc_fusion.sweep.report import write_report
 
     cfg = SweepConfig.from_mapping({**SMALL, "report": {"format": "html"}})
     paths = write_report(cfg, result.rows, tmp_path)
@@ -286,7 +286,7 @@ methods = ["radar", "federated"]
 def test_sigkill_then_resume_equals_an_uninterrupted_sweep(tmp_path):
     cfg_path = write_toml(tmp_path / "kill.toml", KILL_CONFIG)
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "acc_fusion.cli", "sweep", str(cfg_path), "--out", str(out)]
+    cmd = [sys.executable, "-m", "acc_fusion.cli.main", "sweep", str(cfg_path), "--out", str(out)]
     proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     parts = out / "parts"
     deadline = time.monotonic() + 120

@@ -8,9 +8,9 @@ import pytest
 
 pytest.importorskip("libsumo")
 
-from acc_fusion.cli import main  # noqa: E402
-from acc_fusion.errors import ConfigError  # noqa: E402
-from acc_fusion.traffic import bundled_nets, resolve_sumocfg  # noqa: E402
+from acc_fusion.cli.main import main  # noqa: E402
+from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.studies.traffic import bundled_nets, resolve_sumocfg  # noqa: E402
 
 
 def test_bundled_networks_are_installed_package_data():
@@ -57,10 +57,10 @@ def test_gui_run_colours_vehicles_by_the_driving_methods_warning(monkeypatch):
     level at every step (TraCI; the plain ``sumo`` binary stands in for ``sumo-gui``)."""
     import numpy as np
 
-    import acc_fusion.sumo as sumo_mod
-    from acc_fusion.fcw import SimConfig
-    from acc_fusion.sumo import SumoConfig, SumoSource
-    from acc_fusion.traffic import _run
+    import acc_fusion.truth.sumo.source as sumo_mod
+    from acc_fusion.sim.closed_loop import SimConfig
+    from acc_fusion.studies.traffic import _run
+    from acc_fusion.truth.sumo.source import SumoConfig, SumoSource
 
     real = sumo_mod._sumo_binary
     monkeypatch.setattr(sumo_mod, "_sumo_binary", lambda gui: real(False))

@@ -1,0 +1,2 @@
+"""The ``acc-fusion`` command line: one module per command.
+"""

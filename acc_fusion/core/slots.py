@@ -1,0 +1,103 @@
+"""Working on the occupied slots only: the pipeline's stages shrink to a prefix of the pairs.
+
+A traffic source (SUMO) gives every equipped vehicle a slot of a fixed capacity (1024 by
+default) and fills the lowest free slot first, so the vehicles on the network occupy a prefix
+of the slots, far shorter than the capacity while the network fills or empties.  Every stage
+of the pipeline costs in proportion to the pairs it holds, so
+:func:`acc_fusion.sim.closed_loop.simulate`
+lets the stages work on that prefix only (:class:`Extent` decides its length) and
+:meth:`PairState.resize` moves the state of the slots beyond it aside, unchanged, until the
+prefix grows over them again.
+
+This changes no result: a slot beyond the prefix has been empty for at least one step (so
+the metrics have closed its events), every stage resets a slot's state when a new vehicle
+takes it (``forget``/``reset``), and the random draws are made for the whole capacity and
+cut to the prefix, so every slot sees the same draws with or without the prefix (the tests
+hold the two runs equal).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError
+
+#: Slots by which the prefix grows or shrinks (each resize copies every stage's state once).
+QUANTUM = 64
+
+
+class PairState:
+    """A stage whose per-pair arrays can shrink to the first m pairs and grow back.
+
+    A subclass names its per-pair array attributes in ``_PAIR_AXES`` (attribute → axis of
+    the pair index; an attribute that is ``None`` is skipped) and extends :meth:`_resized` to
+    set its pair count and resize its parts.  The state of the pairs beyond m is parked, not
+    dropped: growing back restores it as it was.
+    """
+
+    _PAIR_AXES: ClassVar[dict[str, int]] = {}
+
+    def resize(self, m: int) -> None:
+        """Hold the first ``m`` pairs (``1 <= m <=`` the pairs the stage was built for)."""
+        parked = self.__dict__.setdefault("_parked", {})
+        for name, axis in self._PAIR_AXES.items():
+            held = getattr(self, name)
+            if held is None:
+                continue
+            full = np.concatenate((held, parked[name]), axis) if name in parked else held
+            if not 1 <= m <= full.shape[axis]:
+                raise ConfigError(
+                    f"{type(self).__name__} can hold 1 to {full.shape[axis]} pairs, got {m}"
+                )
+            head, tail = np.split(full, [m], axis=axis)
+            setattr(self, name, np.array(head, order="C"))
+            parked[name] = np.array(tail, order="C")
+        self._resized(m)
+
+    def _resized(self, m: int) -> None:
+        """Set the pair count to ``m`` and resize the stage's parts (subclasses extend it)."""
+
+
+def pair_mask(pairs, n: int) -> np.ndarray:
+    """``pairs`` (a boolean mask ``(n,)`` or indices; ``None``: every pair) as a boolean
+    mask ``(n,)``; numpy checks the mask's length and the indices' range."""
+    if pairs is None:
+        return np.ones(n, dtype=bool)
+    mask = np.zeros(n, dtype=bool)
+    mask[np.asarray(pairs)] = True
+    return mask
+
+
+def resize_all(stages, m: int) -> None:
+    """:meth:`PairState.resize` every stage of ``stages`` to ``m`` pairs."""
+    for stage in stages:
+        stage.resize(m)
+
+
+class Extent:
+    """The length of the prefix of slots the pipeline works on, step by step.
+
+    It covers every slot active now or at the previous step (a slot that empties is seen
+    empty once, so the metrics close its events), rounded up to a multiple of ``quantum``;
+    it grows at once and shrinks only by at least two quanta (no resizing back and forth
+    when the traffic hovers around a boundary).
+    """
+
+    def __init__(self, capacity: int, quantum: int = QUANTUM) -> None:
+        self.capacity, self.quantum = int(capacity), int(quantum)
+        self.size = self.capacity
+        self._last = 0  # one past the highest slot active at the previous step
+
+    def fit(self, active: np.ndarray) -> int:
+        """The prefix length for a step whose active slots are ``active (capacity,)``."""
+        occupied = np.flatnonzero(active)
+        top = int(occupied[-1]) + 1 if occupied.size else 0
+        need = max(top, self._last, 1)
+        self._last = top
+        q = self.quantum
+        fitted = min(self.capacity, -(-need // q) * q)
+        if fitted > self.size or fitted < self.size - q:
+            self.size = fitted
+        return self.size

@@ -1,0 +1,785 @@
+r"""Evaluation harness: run a warning policy in the collision-warning environment and judge it.
+
+:func:`evaluate` runs a policy for a number of episodes of
+:class:`acc_fusion.envs.collision_warning.CollisionWarningEnv` and feeds every step into one
+streaming :class:`acc_fusion.metrics.events.FCWMetrics` (false alarms per hour and per 100 km with
+exact Poisson intervals, miss rate with Wilson intervals, lead time, TTC at warning), counting
+collisions and reward on the way.  :func:`compare_policies` does it for several policies and
+returns a :class:`~acc_fusion.studies.estimation.Table`; :func:`load_policy` imports a user's
+policy from
+a ``MODULE:CALLABLE`` spec; :func:`cmd_evaluate` is the ``acc-fusion evaluate`` command.
+
+Same episodes for every policy
+    Episode *i* is reset with the seed :func:`episode_seed` ``(seed, i)`` (the *i*-th child of
+    ``numpy.random.SeedSequence(seed)``), and the environment draws the scenario, its
+    parameters, the sensor noise and the driver from it.  So every policy starts from the same
+    situations; the runs then differ only through the policy's warnings, because the loop is
+    closed (the simulated driver brakes for imminent alerts).  Exposure (hours, km) may thus
+    differ between policies: compare rates, not counts.
+
+    The ``sumo`` source runs one long simulation whose seeded reset restarts it (the
+    environment's ``reseeding_restarts``): there only episode 0 is reset with its seed, so every
+    policy starts in the same simulation, and the following episodes are the next equipped
+    vehicles of that simulation (the same ones while the policies' warnings have not changed
+    the traffic).  The ``highway`` source starts a highway-env episode at every reset, so
+    there, as for the scripted source, every episode is reset with its seed.
+
+Judging a step
+    ``env.step(action)`` rewards the action against the oracle of the observation it was
+    chosen on (the info of the previous ``reset``/``step``), then moves on.  The harness pairs
+    them the same way: the action taken on observation *k* is recorded at that observation's
+    time :math:`t_k` with its oracle level, true TTC, true ego speed and ``active`` flag, and
+    with the ``collided`` flag of the transition that follows.  ``FCWMetrics.finish`` closes
+    every episode, and the next one starts again at its own :math:`t = 0`.
+
+A policy is any of
+    * a callable ``policy(obs) -> action`` (action 0, 1 or 2, as an int, a numpy integer or
+      a one-element array), optionally with ``reset()``, called at every episode start, and a
+      ``name``;
+    * an object with ``predict(obs, deterministic=True) -> (action, state)``, such as a
+      Stable-Baselines3 model (recurrent ones get their ``state`` and ``episode_start``);
+    * a class, instantiated with no arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import inspect
+import math
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError, InputError
+
+if TYPE_CHECKING:
+    from acc_fusion.metrics.events import FCWSummary
+    from acc_fusion.studies.estimation import Table
+
+#: Stable-Baselines3 algorithms with a discrete action space, for ``[ALGO:]model.zip`` specs.
+SB3_ALGORITHMS = ("PPO", "A2C", "DQN")
+
+_SPEC_HELP = (
+    "--policy must be MODULE:CALLABLE (e.g. my_rules:policy or path/to/rules.py:policy), a "
+    "Stable-Baselines3 model file [PPO|A2C|DQN:]MODEL.zip, or a baseline name ({baselines}), "
+    "got {spec!r}"
+)
+
+
+def episode_seed(seed: int, episode: int) -> int:
+    """The reset seed of episode ``episode`` of an evaluation seeded with ``seed``.
+
+    The ``episode``-th child of ``numpy.random.SeedSequence(seed)`` (as ``spawn`` would give),
+    so it does not depend on how many episodes are run.
+
+    >>> episode_seed(0, 3) == episode_seed(0, 3) != episode_seed(1, 3)
+    True
+    """
+    child = np.random.SeedSequence(seed, spawn_key=(episode,))
+    return int(child.generate_state(1, dtype=np.uint64)[0])
+
+
+def policy_name(policy: object) -> str:
+    """A label for ``policy``: its ``name``, else its function or class name."""
+    name = getattr(policy, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    if inspect.isfunction(policy) or inspect.ismethod(policy) or isinstance(policy, type):
+        return policy.__name__
+    return type(policy).__name__
+
+
+class _Runner:
+    """Uniform ``reset()`` / ``act(obs) -> int`` over the kinds of policy the harness accepts."""
+
+    def __init__(self, policy: object) -> None:
+        if isinstance(policy, type):
+            try:
+                policy = policy()
+            except TypeError as exc:
+                raise ConfigError(
+                    f"policy class {policy.__name__} must be constructible with no arguments: {exc}"
+                ) from None
+        predict = getattr(policy, "predict", None)
+        self.policy = policy
+        self.name = policy_name(policy)
+        self._predict = predict if callable(predict) else None
+        if self._predict is None and not callable(policy):
+            raise ConfigError(
+                "policy must be a callable obs -> action or have .predict(obs, "
+                f"deterministic=True), got {type(policy).__name__}"
+            )
+        self._recurrent = False
+        if self._predict is not None:
+            try:
+                params = inspect.signature(self._predict).parameters
+            except (TypeError, ValueError):
+                params = {}
+            self._recurrent = "state" in params and "episode_start" in params
+        reset = getattr(policy, "reset", None)
+        self._reset = reset if self._predict is None and callable(reset) else None
+        self._state = None
+        self._start = True
+
+    def reset(self) -> None:
+        self._state, self._start = None, True
+        if self._reset is not None:
+            self._reset()
+
+    def act(self, obs: np.ndarray) -> int:
+        if self._predict is None:
+            action = self.policy(obs)
+        else:
+            if self._recurrent:
+                out = self._predict(
+                    obs,
+                    state=self._state,
+                    episode_start=np.array([self._start]),
+                    deterministic=True,
+                )
+            else:
+                out = self._predict(obs, deterministic=True)
+            if isinstance(out, tuple) and len(out) == 2:
+                action, self._state = out
+            else:
+                action = out
+        self._start = False
+        return self._level(action)
+
+    def _level(self, action: object) -> int:
+        arr = np.asarray(action)
+        ok = arr.size == 1 and arr.dtype.kind in "iuf"
+        value = arr.reshape(-1)[0] if ok else None
+        if not ok or value not in (0, 1, 2):
+            raise InputError(
+                f"policy {self.name!r} returned {action!r}: an action must be 0, 1 or 2 "
+                "(none, caution, imminent)"
+            )
+        return int(value)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """The result of :func:`evaluate`.
+
+    Attributes:
+        policy: the policy's label.
+        source, scenario: the environment's truth source and scenario.
+        episodes, seed: episodes run and the seed their reset seeds derive from.
+        summary: the FCW metrics over all episodes (:class:`acc_fusion.metrics.events.FCWSummary`).
+        total_reward: the environment's reward summed over all steps of all episodes.
+        collisions: episodes that ended in a collision.
+        steps: environment steps taken.
+    """
+
+    policy: str
+    source: str
+    scenario: str
+    episodes: int
+    seed: int
+    summary: FCWSummary
+    total_reward: float
+    collisions: int
+    steps: int
+
+    @property
+    def mean_reward(self) -> float:
+        """Reward per episode."""
+        return self.total_reward / self.episodes
+
+    def row(self) -> dict:
+        """This evaluation's row of :func:`comparison_table`."""
+        s = self.summary
+        return {
+            "policy": self.policy,
+            "warnings": s.warnings,
+            "false_alarms": s.false_alarms,
+            "fa_per_hour": s.false_alarms_per_hour.format(),
+            "missed": f"{s.missed}/{s.threats}",
+            "miss_rate": s.miss_rate.format(),
+            "lead_time_median_s": s.lead_time.median,
+            "collisions": f"{self.collisions}/{self.episodes}",
+            "mean_reward": self.mean_reward,
+        }
+
+    def as_dict(self) -> dict:
+        """Plain dicts for JSON (undefined figures become ``None``)."""
+        return {
+            "policy": self.policy,
+            "source": self.source,
+            "scenario": self.scenario,
+            "episodes": self.episodes,
+            "seed": self.seed,
+            "steps": self.steps,
+            "total_reward": self.total_reward,
+            "mean_reward": self.mean_reward,
+            "collisions": self.collisions,
+            "metrics": self.summary.as_dict(),
+        }
+
+
+def _whole(name: str, value: object, lo: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
+        raise ConfigError(f"{name} must be a whole number >= {lo}, got {value!r}")
+    return int(value)
+
+
+def make_env(
+    source: str = "scripted",
+    scenario: str = "random",
+    config=None,
+    reward=None,
+    max_episode_steps: int = 1200,
+    sumo=None,
+    highway=None,
+):
+    """The :class:`~acc_fusion.envs.collision_warning.CollisionWarningEnv` evaluations run in."""
+    from acc_fusion.envs.collision_warning import CollisionWarningEnv
+
+    return CollisionWarningEnv(
+        source=source,
+        scenario=scenario,
+        config=config,
+        reward=reward,
+        max_episode_steps=max_episode_steps,
+        sumo=sumo,
+        highway=highway,
+    )
+
+
+def evaluate(
+    policy: Any,
+    source: str = "scripted",
+    episodes: int = 100,
+    seed: int = 0,
+    scenario: str = "random",
+    warn_level: int = 2,
+    tolerance: float = 1.0,
+    progress: bool = False,
+    *,
+    name: str | None = None,
+    config=None,
+    reward=None,
+    max_episode_steps: int = 1200,
+    sumo=None,
+    highway=None,
+    env=None,
+) -> Evaluation:
+    """Run ``policy`` for ``episodes`` episodes and judge its warnings against the oracle.
+
+    Args:
+        policy: a callable ``obs -> action``, an object with ``predict`` (Stable-Baselines3),
+            or a class to instantiate (see the module docstring).
+        source, scenario: the environment's truth source and scenario.
+        episodes: number of episodes; episode i is reset with :func:`episode_seed` (seed, i).
+        seed: seed of the evaluation (a whole number >= 0).
+        warn_level: the level that counts as a warning in the metrics: 2 imminent (the FCW
+            alert the driver brakes for; default) or 1 caution.
+        tolerance: the matching window of warnings and threats [s] (default 1).
+        progress: show a progress bar over the episodes (on a terminal).
+        name: the policy's label (default :func:`policy_name`).
+        config, reward, max_episode_steps, sumo, highway: passed to the environment
+            (:class:`~acc_fusion.sim.closed_loop.SimConfig`,
+            :class:`~acc_fusion.envs.collision_warning.
+            RewardConfig`, step limit, :class:`~acc_fusion.envs.collision_warning.SumoOptions`
+            of the ``sumo`` source, :class:`~acc_fusion.envs.collision_warning.HighwayOptions`
+            of the ``highway`` source).
+        env: an environment to run in instead of a new one (``source``, ``scenario``,
+            ``config``, ``reward``, ``max_episode_steps``, ``sumo`` and ``highway`` are then
+            ignored); it
+            is not closed, so one environment can serve several evaluations.
+
+    >>> from acc_fusion.envs.policies import TTCPolicy
+    >>> ev = evaluate(TTCPolicy(), episodes=2, seed=1)
+    >>> ev.episodes, ev.summary.warn_level
+    (2, 2)
+    """
+    from tqdm.auto import tqdm
+
+    from acc_fusion.metrics.events import FCWMetrics
+
+    episodes = _whole("episodes", episodes, 1)
+    seed = _whole("seed", seed, 0)
+    runner = _Runner(policy)
+    label = name or runner.name
+    FCWMetrics(1, 1.0, tolerance, warn_level)  # check them before building anything
+    own_env = env is None
+    if own_env:
+        env = make_env(source, scenario, config, reward, max_episode_steps, sumo, highway)
+    base = env.unwrapped
+    seed_first_only = bool(getattr(base, "reseeding_restarts", False))
+    source = getattr(base, "source_name", source)
+    scenario = getattr(base, "scenario", scenario)
+    total_reward, collisions, steps = 0.0, 0, 0
+    try:
+        metrics = FCWMetrics(1, base.dt, tolerance, warn_level)
+        for i in tqdm(
+            range(episodes),
+            disable=None if progress else True,
+            desc=label,
+            unit="episode",
+            leave=False,
+        ):
+            seeded = i == 0 or not seed_first_only
+            obs, info = env.reset(seed=episode_seed(seed, i) if seeded else None)
+            runner.reset()
+            done = False
+            while not done:
+                action = runner.act(obs)
+                obs, r, terminated, truncated, after = env.step(action)
+                collided = bool(after["collided"])
+                metrics.update(
+                    info["t"],
+                    np.array([action], dtype=np.int8),
+                    np.array([info["oracle"]], dtype=np.int8),
+                    np.array([info["ttc"]]),
+                    np.array([info["ego_speed"]]),
+                    np.array([bool(info["active"])]),
+                    np.array([collided]),
+                )
+                total_reward += float(r)
+                collisions += collided
+                steps += 1
+                done = terminated or truncated
+                info = after
+            metrics.finish(info["t"])
+    finally:
+        if own_env:
+            env.close()
+    return Evaluation(
+        policy=label,
+        source=source,
+        scenario=scenario,
+        episodes=episodes,
+        seed=seed,
+        summary=metrics.summary(),
+        total_reward=total_reward,
+        collisions=collisions,
+        steps=steps,
+    )
+
+
+#: Columns of :func:`comparison_table`.
+COLUMNS = (
+    "policy",
+    "warnings",
+    "false_alarms",
+    "fa_per_hour",
+    "missed",
+    "miss_rate",
+    "lead_time_median_s",
+    "collisions",
+    "mean_reward",
+)
+
+
+def comparison_table(evaluations: Sequence[Evaluation]) -> Table:
+    """One row per evaluation: false alarms per hour and miss rate with 95 % intervals,
+    median lead time, collisions (episodes), mean reward per episode."""
+    from acc_fusion.studies.estimation import Table
+
+    if not evaluations:
+        raise ConfigError("comparison_table needs at least one evaluation")
+    first = evaluations[0]
+    s = first.summary
+    level = "imminent" if s.warn_level == 2 else "caution"
+    table = Table(
+        f"Warning policies: {first.episodes} episodes of '{first.scenario}' ({first.source} "
+        f"source), seed {first.seed}, {level} alerts, tolerance {s.tolerance:g} s, "
+        f"{round(100 * s.confidence)}% intervals",
+        COLUMNS,
+        [e.row() for e in evaluations],
+    )
+    hours = [e.summary.hours for e in evaluations]
+    km = [e.summary.km for e in evaluations]
+    table.notes += [
+        "the same episodes and seeds for every policy; closed loop: the driver brakes for "
+        "each policy's imminent alerts, so exposure differs between policies",
+        f"exposure per policy: {min(hours):.3g}-{max(hours):.3g} h, {min(km):.3g}-{max(km):.3g} km",
+    ]
+    return table
+
+
+def compare_policies(policies: Mapping[str, Any], *args: Any, **kwargs: Any) -> Table:
+    """:func:`evaluate_many` (same arguments: ``source``, ``episodes``, ``seed``, ...) turned
+    into the table of :func:`comparison_table`: every policy (keys are the labels) on the same
+    episodes, one environment serving every policy one after the other."""
+    return comparison_table(evaluate_many(policies, *args, **kwargs))
+
+
+def evaluate_many(
+    policies: Mapping[str, Any],
+    source: str = "scripted",
+    episodes: int = 100,
+    seed: int = 0,
+    scenario: str = "random",
+    warn_level: int = 2,
+    tolerance: float = 1.0,
+    progress: bool = False,
+    **env_kwargs,
+) -> list[Evaluation]:
+    """:func:`evaluate` every policy of ``policies`` (keys are the labels) in one environment."""
+    if not policies:
+        raise ConfigError("policies must hold at least one policy")
+    env = make_env(source, scenario, **env_kwargs)
+    try:
+        return [
+            evaluate(
+                policy,
+                episodes=episodes,
+                seed=seed,
+                warn_level=warn_level,
+                tolerance=tolerance,
+                progress=progress,
+                name=label,
+                env=env,
+            )
+            for label, policy in policies.items()
+        ]
+    finally:
+        env.close()
+
+
+# --------------------------------------------------------------------------------------------
+# Loading a user's policy
+# --------------------------------------------------------------------------------------------
+
+
+def _import_module(module_name: str, spec: str):
+    """Import ``module_name`` (a dotted name, from the current folder too, or a ``.py`` file)."""
+    if module_name.endswith(".py"):
+        path = Path(module_name)
+        if not path.is_file():
+            raise ConfigError(f"--policy {spec!r}: file {module_name!r} does not exist")
+        mod_spec = importlib.util.spec_from_file_location(f"_acc_fusion_policy_{path.stem}", path)
+        module = importlib.util.module_from_spec(mod_spec)
+        try:
+            mod_spec.loader.exec_module(module)
+        except Exception as exc:
+            raise ConfigError(
+                f"--policy {spec!r}: importing {module_name!r} failed: {type(exc).__name__}: {exc}"
+            ) from None
+        return module
+    cwd = os.getcwd()
+    added = cwd not in sys.path
+    if added:
+        sys.path.insert(0, cwd)
+    try:
+        return importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name and (module_name == exc.name or module_name.startswith(exc.name + ".")):
+            raise ConfigError(
+                f"--policy {spec!r}: no module named {exc.name!r} (not in the current folder "
+                "nor on PYTHONPATH)"
+            ) from None
+        raise ConfigError(
+            f"--policy {spec!r}: importing {module_name!r} failed: {type(exc).__name__}: {exc}"
+        ) from None
+    except Exception as exc:
+        raise ConfigError(
+            f"--policy {spec!r}: importing {module_name!r} failed: {type(exc).__name__}: {exc}"
+        ) from None
+    finally:
+        if added and cwd in sys.path:
+            sys.path.remove(cwd)
+
+
+def _positional(obj: object) -> tuple[int, int] | None:
+    """``(positional parameters, required ones)`` of a callable, or ``None`` if unknown."""
+    try:
+        params = inspect.signature(obj).parameters.values()
+    except (TypeError, ValueError):
+        return None
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    positional = [p for p in params if p.kind in kinds or p.kind == p.VAR_POSITIONAL]
+    required = [p for p in positional if p.kind in kinds and p.default is p.empty]
+    return len(positional), len(required)
+
+
+def _as_policy(obj: object, spec: str) -> object:
+    """A policy from the object a spec names: a policy itself, or a class/factory to call."""
+    if isinstance(obj, type) or (
+        callable(obj) and not hasattr(obj, "predict") and (_positional(obj) or (1, 1))[0] == 0
+    ):
+        what = "class" if isinstance(obj, type) else "factory"
+        try:
+            obj = obj()
+        except TypeError as exc:
+            raise ConfigError(
+                f"--policy {spec!r}: the {what} must be callable with no arguments: {exc}"
+            ) from None
+        except Exception as exc:
+            raise ConfigError(
+                f"--policy {spec!r}: the {what} failed: {type(exc).__name__}: {exc}"
+            ) from None
+    if callable(getattr(obj, "predict", None)):
+        return obj
+    if not callable(obj):
+        raise ConfigError(
+            f"--policy {spec!r} is not a policy (a callable obs -> action, an object with "
+            f".predict, or a class or factory making one), got a {type(obj).__name__} value"
+        )
+    shape = _positional(obj)
+    if shape is not None and (shape[0] == 0 or shape[1] > 1):
+        raise ConfigError(
+            f"--policy {spec!r} must take one argument (the observation), "
+            f"its signature is {inspect.signature(obj)}"
+        )
+    return obj
+
+
+def _load_sb3(spec: str) -> object:
+    algo, sep, path = spec.partition(":")
+    if not sep or algo.upper() not in SB3_ALGORITHMS:
+        algo, path = "PPO", spec
+    if not Path(path).is_file():
+        raise ConfigError(f"--policy model file {path!r} does not exist")
+    try:
+        import stable_baselines3
+    except ImportError:
+        raise ConfigError(
+            f"--policy {spec!r} needs Stable-Baselines3, which is not installed "
+            "(pip install 'acc_fusion[rl]')"
+        ) from None
+    cls = getattr(stable_baselines3, algo.upper())
+    try:
+        return cls.load(path, device="cpu")
+    except Exception as exc:
+        raise ConfigError(
+            f"--policy {spec!r}: cannot load it as a Stable-Baselines3 {algo.upper()} model: "
+            f"{type(exc).__name__}: {exc}"
+        ) from None
+
+
+def load_policy(spec: str) -> object:
+    """The policy a ``--policy`` spec names.
+
+    ``spec`` is one of:
+
+    * ``MODULE:CALLABLE`` — ``MODULE`` a dotted module name (importable, or in the current
+      folder) or a ``.py`` file path, ``CALLABLE`` an attribute path in it.  A callable that
+      takes one argument is the policy; a class, or a function without parameters, is a
+      factory called once to make it.  Objects with ``predict`` are used as they are.
+    * ``[PPO|A2C|DQN:]MODEL.zip`` — a Stable-Baselines3 model file (default PPO), loaded
+      with ``<ALGO>.load`` on the CPU (needs the ``rl`` extra).
+    * a baseline name of :data:`acc_fusion.envs.policies.BASELINES`.
+
+    Raises :class:`~acc_fusion.core.errors.ConfigError`, one line naming the spec, when it is
+    malformed, the module or attribute does not exist, importing fails or the object is not
+    a policy.
+    """
+    from acc_fusion.envs.policies import BASELINES
+
+    help_ = _SPEC_HELP.format(baselines=", ".join(BASELINES), spec=spec)
+    if not isinstance(spec, str) or not spec.strip():
+        raise ConfigError(help_)
+    spec = spec.strip()
+    if spec in BASELINES:
+        return BASELINES[spec]
+    if spec.lower().endswith(".zip"):
+        return _load_sb3(spec)
+    module_name, sep, attr = spec.rpartition(":")
+    if not sep or not module_name or not attr or not all(attr.split(".")):
+        raise ConfigError(help_)
+    obj = _import_module(module_name, spec)
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise ConfigError(
+                f"--policy {spec!r}: {module_name!r} has no attribute {attr!r} "
+                f"({part!r} is missing)"
+            )
+        obj = getattr(obj, part)
+    return _as_policy(obj, spec)
+
+
+# --------------------------------------------------------------------------------------------
+# acc-fusion evaluate
+# --------------------------------------------------------------------------------------------
+
+
+def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``evaluate`` command to the ``acc-fusion`` sub-parsers (``cmd_evaluate``)."""
+    from acc_fusion.cli.main import positive_float, positive_int
+
+    p = subparsers.add_parser(
+        "evaluate",
+        help="a warning policy (yours or a learned agent) against the baselines, in the "
+        "gymnasium environment",
+        description="Run warning policies closed loop in the collision-warning environment "
+        "(acc_fusion/CollisionWarning-v0) on the same episodes and seeds, and print false "
+        "alarms per hour and miss rate with 95% intervals, median lead time, collisions and "
+        "mean reward per policy. --policy names a policy (repeatable); --baselines adds every "
+        "baseline of acc_fusion.envs.policies (the papers' safety-distance rule, the shipped "
+        "warning logic, TTC, RSS, uncertainty-aware, always-warn, never-warn).",
+    )
+    p.add_argument(
+        "--policy",
+        action="append",
+        default=[],
+        metavar="SPEC",
+        help="MODULE:CALLABLE (a callable obs -> action 0/1/2, or a class/factory without "
+        "arguments making one; MODULE may be a .py file), a Stable-Baselines3 model "
+        "[PPO|A2C|DQN:]MODEL.zip, or a baseline name; repeatable",
+    )
+    p.add_argument(
+        "--baselines",
+        action="store_true",
+        help="also evaluate every baseline policy on the same episodes",
+    )
+    p.add_argument(
+        "--source",
+        default="scripted",
+        choices=("scripted", "sumo", "highway"),
+        help="truth source of the environment (default scripted)",
+    )
+    p.add_argument(
+        "--scenario", default="random", help="scenario name, scripted source (default random)"
+    )
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--net",
+        help="bundled SUMO network of --source sumo: motorway (default), onramp, ring, arterial",
+    )
+    where.add_argument("--sumocfg", metavar="PATH", help="a SUMO configuration for --source sumo")
+    p.add_argument(
+        "--highway-env",
+        metavar="ID",
+        help="highway-env environment of --source highway: highway-fast-v0 (default), "
+        "highway-v0, merge-v0",
+    )
+    p.add_argument(
+        "--vehicles",
+        type=int,
+        metavar="N",
+        help="highway-env's vehicles_count of --source highway (default: the environment's)",
+    )
+    p.add_argument(
+        "--episodes", type=positive_int, default=100, help="episodes per policy (default 100)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the episodes (default 0)")
+    p.add_argument(
+        "--warn-level",
+        type=int,
+        choices=(1, 2),
+        default=2,
+        help="level that counts as a warning: 2 imminent (default) or 1 caution",
+    )
+    p.add_argument(
+        "--tolerance",
+        type=positive_float,
+        default=1.0,
+        help="window [s] within which a warning and a threat match (default 1)",
+    )
+    p.add_argument(
+        "--max-steps",
+        type=positive_int,
+        default=1200,
+        help="steps before an episode is truncated (default 1200)",
+    )
+    p.add_argument("--config", metavar="FILE", help="TOML or YAML file of SimConfig fields")
+    p.add_argument("--out", metavar="DIR", help="also write evaluate.csv and evaluate.json here")
+    p.set_defaults(func=cmd_evaluate)
+    return p
+
+
+def _env_config(path: str | None, scenario: str):
+    """SimConfig of the environment from ``--config`` (its methods are the environment's)."""
+    if not path:
+        return None
+    from acc_fusion.core.config import from_mapping, load_mapping
+    from acc_fusion.sim.closed_loop import SimConfig
+
+    data = dict(load_mapping(path))
+    data.update(scenario=scenario, runs=1, methods=("federated",), drive=None)
+    return from_mapping(SimConfig, data)
+
+
+def _sumo_options(args: argparse.Namespace):
+    """The sumo source's options from ``--net`` / ``--sumocfg`` (``None``: the defaults)."""
+    if args.net is None and args.sumocfg is None:
+        return None
+    if args.source != "sumo":
+        raise ConfigError(f"--net and --sumocfg apply to --source sumo, not {args.source!r}")
+    from acc_fusion.envs.collision_warning import SumoOptions
+
+    return SumoOptions(net=args.net, sumocfg=args.sumocfg)
+
+
+def _highway_options(args: argparse.Namespace):
+    """The highway source's options from ``--highway-env`` / ``--vehicles`` (``None``: the
+    defaults)."""
+    given = {"env": args.highway_env, "vehicles_count": args.vehicles}
+    given = {k: v for k, v in given.items() if v is not None}
+    if not given:
+        return None
+    if args.source != "highway":
+        raise ConfigError(
+            f"--highway-env and --vehicles apply to --source highway, not {args.source!r}"
+        )
+    from acc_fusion.envs.collision_warning import HighwayOptions
+
+    return HighwayOptions(**given)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    """``acc-fusion evaluate``: print the comparison table (and write CSV/JSON with ``--out``).
+
+    The table holds the ``--policy`` policies, in order, then, with ``--baselines``, every
+    baseline; at least one of the two is needed.
+    """
+    from acc_fusion.envs.policies import BASELINES
+
+    if not args.policy and not args.baselines:
+        raise ConfigError("give a policy to evaluate with --policy MODULE:CALLABLE, or --baselines")
+    out = None
+    if args.out:
+        from acc_fusion.core.outputs import output_dir
+
+        out = output_dir(args.out)
+    policies = {spec: load_policy(spec) for spec in args.policy}
+    if args.baselines:
+        policies.update({k: v for k, v in BASELINES.items() if k not in policies})
+    evaluations = evaluate_many(
+        policies,
+        source=args.source,
+        episodes=args.episodes,
+        seed=args.seed,
+        scenario=args.scenario,
+        warn_level=args.warn_level,
+        tolerance=args.tolerance,
+        progress=True,
+        config=_env_config(args.config, args.scenario),
+        max_episode_steps=args.max_steps,
+        sumo=_sumo_options(args),
+        highway=_highway_options(args),
+    )
+    table = comparison_table(evaluations)
+    print(table.format())
+    if out is not None:
+        from acc_fusion.core.outputs import write_csv_atomic, write_json_atomic
+
+        write_csv_atomic(out / "evaluate.csv", table.columns, table.rows)
+        write_json_atomic(
+            out / "evaluate.json",
+            {"policies": [_clean(e.as_dict()) for e in evaluations]},
+        )
+        print(f"wrote {out / 'evaluate.csv'} and {out / 'evaluate.json'}")
+    return 0
+
+
+def _clean(x: object) -> object:
+    """NaN and ±inf become ``None`` (JSON has neither)."""
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x

@@ -1,0 +1,207 @@
+r"""Fault detection and isolation: a windowed chi-square test on each sensor's NIS.
+
+For every pair and sensor the fusion center computes the normalised innovation squared of
+the sensor's measurement against its own one-step prediction,
+:math:`\epsilon_\nu = \nu^\top S^{-1}\nu` with :math:`S = H P^- H^\top + R`, which is
+:math:`\chi^2_m` distributed (m = 2: range and range-rate) for a healthy sensor and a
+consistent filter (Bar-Shalom, Li & Kirubarajan 2001, §5.4; in fusion-reset mode this is the
+local filter's own innovation with its information share undone).  Two tests use it:
+
+* **Gate** (per report): a measurement with :math:`\epsilon_\nu > \chi^2_{m}(p_g)` is not used
+  in the update (an outlier: a spike, a ghost, the first report of a bias).  When two or
+  more non-isolated sensors of a pair have reported within the last ``common_steps`` steps
+  and the latest report of *every one* failed the gate, the cause is common to all of them
+  (a manoeuvre the motion model did not expect, such as the ego's own hard braking), so the
+  measurements are used and not counted as evidence of a fault.
+* **Window** (per sensor): the sum of the last W NIS values, each clipped at
+  :math:`\chi^2_m(p_c)`, is compared with :math:`\chi^2_{mW}(1-\alpha)`.  A failing sensor is
+  *isolated*: left out of the fusion.  Its window is then refilled with its NIS against the
+  fusion center's prediction, and when a full window passes the test again the sensor
+  rejoins (the fusion center re-initialises its local filter from the fused estimate).
+  Clipping keeps one spike from isolating a sensor (it adds at most
+  :math:`\chi^2_m(p_c)` = 9.2 for m = 2), while a persistent fault (bias, stuck value, noise
+  burst) fills the window with large values and isolates it after W reports.
+
+The state (windows, isolation flags) is per pair and per sensor, stored in arrays, so the
+test costs a few vector operations per step whatever the number of pairs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy.stats import chi2
+
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.slots import PairState
+from acc_fusion.core.validation import check_range
+
+
+@dataclass(frozen=True)
+class FDIConfig:
+    """Parameters of the windowed chi-square fault detection and isolation.
+
+    Attributes:
+        window: number of reports W summed by the window test (default 10: 0.5 s of radar,
+            1 s of infrared at their default rates).
+        alpha: false-isolation probability of one window test of a healthy sensor
+            (default 0.001; windows overlap, so a healthy sensor is isolated about
+            0.2 % of the time at this level).
+        gate_prob: probability mass of the per-report gate :math:`\\chi^2_m(p_g)`
+            (default 0.9999, i.e. 18.4 for m = 2).
+    """
+
+    window: int = 10
+    alpha: float = 0.001
+    gate_prob: float = 0.9999
+    clip_prob: float = 0.99
+    confirm_tracks: bool = True
+    common_steps: int = 3
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.window, int) or not 1 <= self.window <= 10_000:
+            raise ConfigError(
+                f"fdi.window must be a whole number in [1, 10000], got {self.window!r}"
+            )
+        check_range("fdi.alpha", self.alpha, 0.0, 1.0, lo_open=True, hi_open=True)
+        check_range("fdi.gate_prob", self.gate_prob, 0.0, 1.0, lo_open=True, hi_open=True)
+        check_range("fdi.clip_prob", self.clip_prob, 0.0, 1.0, lo_open=True, hi_open=True)
+        if not isinstance(self.common_steps, int) or not 0 <= self.common_steps <= 1000:
+            raise ConfigError(
+                f"fdi.common_steps must be a whole number in [0, 1000], got {self.common_steps!r}"
+            )
+
+
+class WindowedChiSquare(PairState):
+    """Per pair and per sensor NIS gate and window test (see the module docstring)."""
+
+    _PAIR_AXES = dict.fromkeys(
+        ("_buf", "_sum", "_count", "_pos", "isolated", "_verdict", "_age"), 0
+    )
+
+    def __init__(self, n_pairs: int, n_sensors: int, config: FDIConfig, dof: int = 2) -> None:
+        self.config = config
+        w = int(config.window)
+        self.gate = float(chi2.ppf(config.gate_prob, dof))
+        self.clip = float(chi2.ppf(config.clip_prob, dof))
+        self.threshold = float(chi2.ppf(1.0 - config.alpha, dof * w))
+        self._buf = np.zeros((n_pairs, n_sensors, w))
+        self._sum = np.zeros((n_pairs, n_sensors))
+        self._count = np.zeros((n_pairs, n_sensors), dtype=np.int64)
+        self._pos = np.zeros((n_pairs, n_sensors), dtype=np.int64)
+        self.isolated = np.zeros((n_pairs, n_sensors), dtype=bool)
+        self._verdict = np.zeros((n_pairs, n_sensors), dtype=np.int8)
+        self._age = np.zeros((n_pairs, n_sensors), dtype=np.int64)
+
+    def reset(self, pairs: np.ndarray) -> None:
+        """Forget windows and isolation of the pairs in the boolean mask ``pairs``."""
+        _reset(np.ascontiguousarray(pairs, dtype=bool), *self.arrays()[:6])
+
+    def tests(self) -> tuple[float, float, float, int]:
+        """The gate, the clip value, the window threshold and the common-cause steps."""
+        return self.gate, self.clip, self.threshold, int(self.config.common_steps)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The state arrays, in the order of :func:`window_one`'s arguments after the
+        thresholds: window ring, its sum, count and position, isolation, verdict, age."""
+        return (
+            self._buf, self._sum, self._count, self._pos, self.isolated, self._verdict, self._age
+        )  # fmt: skip
+
+    def step(self, nis: np.ndarray, reported: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Test one step of NIS values ``(N, S)`` where ``reported (N, S)``.
+
+        Returns ``(accepted, rejoined)``: the measurements to use in the update, and the
+        sensors that passed a full window while isolated and rejoin now.  ``self.isolated``
+        holds the isolation state after this step.
+        """
+        accepted = np.empty_like(self.isolated)
+        rejoined = np.empty_like(self.isolated)
+        _window_step(
+            np.ascontiguousarray(nis, dtype=float), np.ascontiguousarray(reported, dtype=bool),
+            *self.tests(), *self.arrays(), accepted, rejoined,
+        )  # fmt: skip
+        return accepted, rejoined
+
+
+@njit(cache=True)
+def _window_step(
+    nis, reported, gate, clip, threshold, common_steps, buf, total, count, pos, isolated,
+    verdict, age, accepted, rejoined,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:meth:`WindowedChiSquare.step` for every pair, in place (rules in the module docstring)."""
+    for i in range(buf.shape[0]):
+        window_one(
+            i, nis, reported, gate, clip, threshold, common_steps, buf, total, count, pos,
+            isolated, verdict, age, accepted, rejoined,
+        )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def window_one(
+    i, nis, reported, gate, clip, threshold, common_steps, buf, total, count, pos, isolated,
+    verdict, age, accepted, rejoined,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_window_step` of pair ``i``: per sensor, the gate verdict (1 pass, 2 fail) and
+    its age; the common-cause test over the pair's sensors; the clipped NIS into the window
+    ring; the window test."""
+    n_sensors, w = buf.shape[1], buf.shape[2]
+    n_recent = 0
+    any_pass = False
+    for s in range(n_sensors):
+        if reported[i, s]:
+            verdict[i, s] = 1 if nis[i, s] <= gate else 2
+            age[i, s] = 0
+        else:
+            age[i, s] += 1
+        if not isolated[i, s] and verdict[i, s] > 0 and age[i, s] <= common_steps:
+            n_recent += 1
+            any_pass = any_pass or verdict[i, s] == 1
+    common = n_recent >= 2 and not any_pass
+    for s in range(n_sensors):
+        rep = reported[i, s]
+        accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or common)
+        rejoined[i, s] = False
+        if rep and not common:
+            k = pos[i, s]
+            old = buf[i, s, k]
+            value = clip if nis[i, s] > clip else nis[i, s]
+            buf[i, s, k] = value
+            total[i, s] += value - old
+            pos[i, s] = (k + 1) % w
+            count[i, s] = min(count[i, s] + 1, w)
+        if count[i, s] == w:
+            fail = total[i, s] > threshold
+            if fail != isolated[i, s]:  # newly isolated, or rejoining
+                if fail:
+                    accepted[i, s] = False
+                else:
+                    rejoined[i, s] = True
+                isolated[i, s] = fail
+                buf[i, s, :] = 0.0
+                total[i, s] = 0.0
+                count[i, s] = 0
+                pos[i, s] = 0
+
+
+@njit(cache=True)
+def _reset(mask, buf, total, count, pos, isolated, verdict):  # pragma: no cover - compiled
+    """:meth:`WindowedChiSquare.reset` of the pairs in ``mask``."""
+    for i in range(mask.size):
+        if mask[i]:
+            reset_one(i, buf, total, count, pos, isolated, verdict)
+
+
+@njit(cache=True, inline="always")
+def reset_one(i, buf, total, count, pos, isolated, verdict):  # pragma: no cover - compiled
+    """Forget the windows and the isolation of pair ``i``."""
+    for s in range(buf.shape[1]):
+        for k in range(buf.shape[2]):
+            buf[i, s, k] = 0.0
+        total[i, s] = 0.0
+        count[i, s] = 0
+        pos[i, s] = 0
+        isolated[i, s] = False
+        verdict[i, s] = 0

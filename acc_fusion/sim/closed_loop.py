@@ -1,0 +1,576 @@
+r"""Forward collision warning end to end: scenario → sensors → fusion → warning → metrics.
+
+:func:`simulate` runs one :class:`SimConfig`: a batch of runs of a scripted scenario (or the
+randomised suite), the radar and infrared sensors, the ego-motion filter (ego speed from
+wheel speed + accelerometer, yang2009), one estimator per compared method, the warning
+logic of each method, the *oracle* (the same warning rule on ground truth) and the
+streaming metrics of each method against the oracle (:mod:`acc_fusion.metrics.events`).
+
+Open loop (``drive=None``) every method observes the same truth, so their false-alarm and
+miss rates are compared on identical runs.  Closed loop (``drive="federated"``, say) the
+simulated driver (:mod:`acc_fusion.truth.driver`) reacts to that method's warnings and brakes,
+so the truth itself depends on the warnings; collisions with warnings on and off are then
+compared on the same seeds (:func:`compare`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numba import njit
+from tqdm.auto import tqdm
+
+from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.slots import Extent, PairState, resize_all
+from acc_fusion.core.validation import check_choice, check_range
+from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
+from acc_fusion.fusion.estimators import FUSION_METHODS, Estimate, FusionConfig, make_estimator
+from acc_fusion.metrics.events import FCWMetrics, FCWSummary
+from acc_fusion.sensors.faults import Fault
+from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
+from acc_fusion.studies.estimation import SENSOR_NAMES, make_sensors
+from acc_fusion.truth.driver import Driver, DriverConfig
+from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.scripted import SCENARIOS, make_scenario
+from acc_fusion.warning.logic import IMMINENT, WarningConfig, WarningLogic
+from acc_fusion.warning.safety import safety_distances, time_to_collision
+
+#: The methods compared by default: each sensor alone, centralized and federated fusion.
+DEFAULT_METHODS = ("radar", "infrared", "centralized", "federated")
+#: Wheel-speed and accelerometer noise of the simulated ego sensors, and the spread of the
+#: accelerometer's constant offset (see :class:`acc_fusion.filters.ego.EgoFilterConfig`).
+WHEEL_SPEED_STD, ACCEL_STD, ACCEL_BIAS_STD = 0.1, 0.1, 0.3
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Everything a simulation needs: one typed schema for config files and CLI flags.
+
+    Attributes:
+        scenario: a name of :data:`acc_fusion.truth.scripted.SCENARIOS` (``"random"``: the
+            randomised Monte Carlo suite).
+        runs: number of runs (batched).
+        seed: seed of truth, sensor noise and driver draws.
+        dt: simulation and filter step [s].
+        duration: run length [s] (``None``: the scenario's own).
+        methods: compared methods (sensor names or fusion methods).
+        drive: method whose warnings the driver reacts to (closed loop); ``None``: open loop.
+        fusion: fusion settings shared by every method (its ``method`` field is ignored).
+        warning: safety-distance model and warning logic (also used by the oracle).
+        driver: reaction time and deceleration of the simulated driver (by default he reacts
+            to the imminent alert).
+        tolerance: time window [s] within which a warning and an oracle threat match.
+        warn_level: the level that counts as a warning in the metrics: 2, imminent (the FCW
+            alert; default) or 1, caution.
+        radar, infrared: overrides of the sensors' default specs (e.g. ``{"ghost_rate": 0.1}``).
+        radar_faults, infrared_faults: faults injected into each sensor.
+    """
+
+    scenario: str = "random"
+    runs: int = 200
+    seed: int = 0
+    dt: float = 0.05
+    duration: float | None = None
+    methods: tuple[str, ...] = DEFAULT_METHODS
+    drive: str | None = None
+    fusion: FusionConfig = field(default_factory=FusionConfig)
+    warning: WarningConfig = field(default_factory=WarningConfig)
+    driver: DriverConfig = field(default_factory=lambda: DriverConfig(react_to_level=IMMINENT))
+    tolerance: float = 1.0
+    warn_level: int = IMMINENT
+    radar: dict = field(default_factory=dict)
+    infrared: dict = field(default_factory=dict)
+    radar_faults: tuple[Fault, ...] = ()
+    infrared_faults: tuple[Fault, ...] = ()
+
+    def __post_init__(self) -> None:
+        check_choice("scenario", self.scenario, tuple(SCENARIOS))
+        if not isinstance(self.runs, int) or not 1 <= self.runs <= 10_000_000:
+            raise ConfigError(f"runs must be a whole number in [1, 10000000], got {self.runs!r}")
+        check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
+        if self.duration is not None:
+            check_range("duration", self.duration, 0.0, 1e6, lo_open=True)
+        object.__setattr__(self, "methods", tuple(self.methods))
+        if not self.methods:
+            raise ConfigError("methods must name at least one method")
+        for m in self.methods:
+            check_choice("methods[i]", m, SENSOR_NAMES + FUSION_METHODS)
+        if self.drive is not None:
+            check_choice("drive", self.drive, self.methods)
+        check_range("tolerance", self.tolerance, 0.0, 60.0)
+        check_choice("warn_level", str(self.warn_level), ("1", "2"))
+        # Build the specs once so that a bad override fails here, naming the field.
+        self.sensor_specs()
+
+    def sensor_specs(self):
+        """The radar and infrared specs with this config's overrides."""
+        return radar_spec(**self.radar), infrared_spec(**self.infrared)
+
+
+@dataclass
+class StepView:
+    """What one step of :func:`simulate` produced (handed to ``on_step`` callbacks).
+
+    With a source of slots (SUMO, highway-env) the arrays cover the first
+    ``frame.n_pairs`` slots, which hold every vehicle (:mod:`acc_fusion.core.slots`)."""
+
+    frame: TruthFrame
+    measurements: list[Measurement]
+    estimates: dict[str, Estimate]
+    levels: dict[str, np.ndarray]
+    oracle: np.ndarray
+    ttc: np.ndarray
+
+
+@dataclass
+class Trace:
+    """What happened to one run, step by step (for the ``run`` command's plot and CSV)."""
+
+    warning: WarningConfig
+    run: int = 0
+    rows: list[dict] = field(default_factory=list)
+
+    def __call__(self, view: StepView) -> None:
+        i, frame = self.run, view.frame
+        has = bool(frame.has_leader[i])
+        d_caution, d_imminent = safety_distances(
+            self.warning.model,
+            frame.ego_speed[i : i + 1],
+            frame.range_rate[i : i + 1] if has else np.zeros(1),
+            frame.lead_accel[i : i + 1] if has else np.zeros(1),
+            self.warning.params,
+        )
+        row = {
+            "t": frame.t,
+            "gap": frame.gap[i] if has else np.nan,
+            "range_rate": frame.range_rate[i] if has else np.nan,
+            "ego_speed": frame.ego_speed[i],
+            "ttc": view.ttc[i],
+            "oracle_level": int(view.oracle[i]),
+            "d_caution": d_caution[0] if has else np.nan,
+            "d_imminent": d_imminent[0] if has else np.nan,
+        }
+        for m in view.measurements:
+            row[f"{m.sensor}_range"] = m.z[i, 0] if m.valid[i] else np.nan
+            row[f"{m.sensor}_range_rate"] = m.z[i, 1] if m.valid[i] else np.nan
+        for name, est in view.estimates.items():
+            ok = est.valid[i]
+            row[f"{name}_gap"] = est.gap[i] if ok else np.nan
+            row[f"{name}_gap_std"] = est.gap_std[i] if ok else np.nan
+            row[f"{name}_level"] = int(view.levels[name][i])
+        self.rows.append(row)
+
+
+class FirstWarning:
+    """Records, per run, the true TTC at the onset of the first warning of ``method``."""
+
+    def __init__(self, n_runs: int, method: str, level: int) -> None:
+        self.method, self.level = method, level
+        self.ttc = np.full(n_runs, np.nan)
+
+    def __call__(self, view: StepView) -> None:
+        new = np.isnan(self.ttc) & (view.levels[self.method] >= self.level)
+        self.ttc[new] = view.ttc[new]
+
+
+@dataclass
+class SimResult:
+    """Metrics of every method, and the outcome of the runs."""
+
+    config: SimConfig
+    summaries: dict[str, FCWSummary]
+    collided: np.ndarray
+    collision_speed: np.ndarray
+    steps: int
+
+
+class _EgoSensors(PairState):
+    """Wheel-speed and accelerometer readings of N vehicles (with a constant accelerometer
+    offset per vehicle); the draws are made for the N vehicles even when resized to fewer."""
+
+    _PAIR_AXES = {"_bias": 0}
+
+    def __init__(self, n: int, rng: np.random.Generator) -> None:
+        self._rng, self._capacity, self._n = rng, n, n
+        self._bias = rng.normal(0.0, ACCEL_BIAS_STD, n)
+
+    def _resized(self, m: int) -> None:
+        self._n = m
+
+    def __call__(self, frame: TruthFrame) -> tuple[np.ndarray, np.ndarray]:
+        n, cap = self._n, self._capacity
+        accel = frame.ego_accel + self._bias + self._rng.normal(0.0, ACCEL_STD, cap)[:n]
+        noise = self._rng.normal(0.0, WHEEL_SPEED_STD, cap)[:n]
+        return accel, np.maximum(frame.ego_speed + noise, 0.0)
+
+
+@dataclass
+class Perceived:
+    """What the equipped vehicles know at one step, with the oracle's view of the truth."""
+
+    frame: TruthFrame
+    measurements: list[Measurement]
+    v_ego: np.ndarray
+    estimates: dict[str, Estimate]
+    oracle: np.ndarray
+    ttc: np.ndarray
+
+
+class Perception(PairState):
+    """Sensors, ego-motion filter, every method's estimator, and the oracle, over N pairs.
+
+    One step of :meth:`step` turns a truth frame into measurements, the ego-speed estimate,
+    one :class:`~acc_fusion.fusion.estimators.Estimate` per method, the oracle's warning level (the
+    warning rule on ground truth) and the true TTC.  :func:`simulate` adds each method's
+    warning logic, the metrics and the driver; the gymnasium environment adds a policy.
+    :meth:`resize` makes it perceive the first m pairs only (:mod:`acc_fusion.core.slots`).
+    """
+
+    _PAIR_AXES = {"_input": 0, "_accel_now": 0}
+
+    def __init__(self, config: SimConfig, n: int, seeds: np.random.SeedSequence) -> None:
+        cfg, dt = config, config.dt
+        s_sensors, s_ego = seeds.spawn(2)
+        self.config, self.n = cfg, n
+        specs = cfg.sensor_specs()
+        self.sensors = make_sensors(
+            int(s_sensors.generate_state(1)[0]),
+            *specs,
+            radar_faults=cfg.radar_faults,
+            infrared_faults=cfg.infrared_faults,
+        )
+        for sensor in self.sensors:
+            sensor.allocate(n)
+        self._read_ego = _EgoSensors(n, np.random.default_rng(s_ego))
+        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt))
+        # The accelerometer (offset removed by the ego filter) is the model's known input.
+        fusion = replace(
+            cfg.fusion, filter=replace(cfg.fusion.filter, dt=dt, ego_accel_std=ACCEL_STD)
+        )
+        self.estimators = {
+            m: make_estimator(replace(fusion, method=m), SENSOR_NAMES, n, specs)
+            for m in cfg.methods
+        }
+        self.oracle = WarningLogic(cfg.warning, n, dt)
+        self._input = np.zeros(n)  # ego acceleration over the previous step
+        self._accel_now = np.zeros(n)
+
+    def _resized(self, m: int) -> None:
+        self.n = m
+        parts = (*self.sensors, self._read_ego, self.ego, self.oracle, *self.estimators.values())
+        resize_all(parts, m)
+
+    def forget(self, pairs: np.ndarray, wheel: np.ndarray) -> None:
+        """Start afresh for ``pairs`` (a slot that got a new vehicle)."""
+        for sensor in self.sensors:
+            sensor.forget(pairs)
+        self.ego.reset(pairs, wheel)
+        self.oracle.reset(pairs)
+        for est in self.estimators.values():
+            est.forget(pairs)
+
+    def step(self, frame: TruthFrame, active: np.ndarray, reassigned=None) -> Perceived:
+        """Perceive ``frame`` (the pairs in ``active`` are being driven)."""
+        accel, wheel = self._read_ego(frame)
+        if reassigned is not None and reassigned.any():
+            self.forget(reassigned, wheel)
+        meas = [s.measure(frame) for s in self.sensors]
+        v_ego, bias = self.ego.step(accel, wheel)
+        self._accel_now = accel - bias
+        has = frame.has_leader & active
+        rate = np.where(has, frame.range_rate, 0.0)
+        oracle = self.oracle.step(
+            np.where(has, frame.gap, 0.0),
+            frame.ego_speed,
+            rate,
+            np.where(has, frame.lead_accel, 0.0),
+            valid=has,
+        )
+        # True TTC (constant speeds, as the test protocols define it); inf without a leader.
+        ttc = time_to_collision(np.where(has, frame.gap, 1.0), rate)
+        ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
+        return Perceived(frame, meas, v_ego, ests, oracle, ttc)
+
+    def advanced(self) -> None:
+        """The source moved one step: this step's acceleration is the next prediction's input."""
+        self._input = self._accel_now
+
+
+def warning_inputs(p: Perceived, method: str, active: np.ndarray) -> dict[str, np.ndarray]:
+    """The arguments of :meth:`WarningLogic.step` for ``method``'s estimate."""
+    est = p.estimates[method]
+    ok = est.valid & active
+    gap, v_rel, a_lead, gap_std = np.empty((4, ok.size))
+    _track_inputs(ok, est.x, est.p, gap, v_rel, a_lead, gap_std)
+    return {"gap": gap, "v_ego": p.v_ego, "v_rel": v_rel, "a_lead": a_lead, "gap_std": gap_std,
+            "valid": ok}  # fmt: skip
+
+
+@njit(cache=True)
+def _track_inputs(ok, x, p, gap, v_rel, a_lead, gap_std):  # pragma: no cover - compiled
+    r"""Where ``ok (N,)``: the columns of the estimates ``x (N, 3)`` (``gap``, ``v_rel``,
+    ``a_lead``) and the gap's standard deviation :math:`\sqrt{P_{00}}` of ``p (N, 3, 3)``
+    (``gap_std``); 0 elsewhere (outputs ``(N,)``)."""
+    for i in range(ok.size):
+        if ok[i]:
+            gap[i], v_rel[i], a_lead[i] = x[i, 0], x[i, 1], x[i, 2]
+            gap_std[i] = np.sqrt(p[i, 0, 0])
+        else:
+            gap[i] = v_rel[i] = a_lead[i] = gap_std[i] = 0.0
+
+
+def simulate(
+    config: SimConfig,
+    *,
+    source=None,
+    progress: bool = False,
+    on_step: Callable[[StepView], None] | None = None,
+    warnings_on: bool = True,
+) -> SimResult:
+    """Run ``config``; with ``warnings_on`` false the driver never hears a warning.
+
+    ``on_step`` (e.g. a :class:`Trace` or :class:`FirstWarning`) sees every step.  ``source``
+    replaces the scripted scenario of ``config`` by another truth source with the same
+    interface (e.g. :class:`acc_fusion.truth.sumo.source.SumoSource`); its slots are the pairs, its
+    step
+    is ``dt``, and a slot it ``reassigned`` to a new vehicle starts afresh.
+    """
+    cfg = config
+    dt = cfg.dt
+    s_source, s_perception, s_driver = np.random.SeedSequence(cfg.seed).spawn(3)
+    if source is None:
+        overrides = {"dt": dt} if cfg.duration is None else {"dt": dt, "duration": cfg.duration}
+        source = make_scenario(
+            cfg.scenario, cfg.runs, seed=np.random.default_rng(s_source), **overrides
+        )
+    if cfg.drive is not None and not getattr(source, "accepts_brakes", True):
+        raise ConfigError(
+            f"{type(source).__name__} cannot apply brake requests, so it cannot run a closed "
+            f"loop (drive = {cfg.drive!r}); use a source that does (e.g. SumoSource)"
+        )
+    n = len(source.active)
+    perception = Perception(cfg, n, s_perception)
+    logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
+    metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
+    driver = Driver(n, cfg.driver, seed=np.random.default_rng(s_driver)) if cfg.drive else None
+    # With a source of slots (SUMO, highway-env), every stage works on the prefix of slots
+    # that holds the vehicles (acc_fusion.core.slots); a scripted batch keeps all its runs.
+    stages = [perception, *logic.values(), *metrics.values(), *([driver] if driver else [])]
+    extent = Extent(n) if isinstance(source, SlotSource) else Extent(n, quantum=n)
+
+    steps = 0
+    t_last = source.t
+    try:
+        for _ in tqdm(
+            range(source.n_steps),
+            disable=None if progress else True,
+            desc=cfg.scenario,
+            unit="step",
+            leave=False,
+        ):
+            frame, active, collided = source.frame(), source.active, source.collided
+            new = getattr(source, "reassigned", None)
+            k = extent.size
+            if extent.fit(active) != k:
+                k = extent.size
+                resize_all(stages, k)
+            if k < n:
+                frame, active, collided = frame.head(k), active[:k], collided[:k]
+                new = None if new is None else new[:k]
+            p = perception.step(frame, active, new)
+            if new is not None and new.any():
+                for m in cfg.methods:
+                    logic[m].reset(new)
+                    metrics[m].reset(new)
+                if driver is not None:
+                    driver.reset(new)
+            levels = {}
+            for m in cfg.methods:
+                levels[m] = logic[m].step(**warning_inputs(p, m, active))
+                metrics[m].update(
+                    frame.t, levels[m], p.oracle, p.ttc, frame.ego_speed, active, collided
+                )
+            t_last = frame.t
+            if on_step is not None:
+                on_step(StepView(frame, p.measurements, p.estimates, levels, p.oracle, p.ttc))
+            brake = None
+            if driver is not None:  # the brake requests of the slots beyond the prefix: none
+                heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)
+                brake = np.zeros(n)
+                brake[: frame.n_pairs] = driver.step(heard, frame)
+            source.advance(brake)
+            perception.advanced()
+            steps += 1
+            if source.done:
+                break
+    except AccFusionError as exc:  # the source failed mid-run: keep what was measured
+        resize_all(metrics.values(), n)
+        for m in metrics.values():
+            m.finish(t_last)
+        exc.summaries = {m: metrics[m].summary() for m in cfg.methods}
+        raise
+    t_end = source.t
+    resize_all(metrics.values(), n)
+    for m in metrics.values():
+        m.finish(t_end)
+    return SimResult(
+        config=cfg,
+        summaries={m: metrics[m].summary() for m in cfg.methods},
+        collided=source.collided,
+        collision_speed=source.collision_speed,
+        steps=steps,
+    )
+
+
+#: Radar clutter of the comparison runs: ghosts of stationary roadside objects, the classic
+#: cause of FCW false alarms (0.05 per second per vehicle: one every 20 s of driving).
+COMPARE_CLUTTER = {"ghost_rate": 0.05}
+
+
+#: Columns of :func:`summary_row`.
+SUMMARY_COLUMNS = (
+    "method",
+    "warnings",
+    "false_alarms",
+    "fa_per_hour",
+    "fa_per_100km",
+    "missed",
+    "miss_rate",
+    "lead_time_median_s",
+)
+
+
+def summary_row(method: str, s: FCWSummary) -> dict:
+    """One method's metrics as a table row (rates with their 95 % intervals)."""
+    return {
+        "method": method,
+        "warnings": s.warnings,
+        "false_alarms": s.false_alarms,
+        "fa_per_hour": s.false_alarms_per_hour.format(),
+        "fa_per_100km": s.false_alarms_per_100km.format(),
+        "missed": f"{s.missed}/{s.threats}",
+        "miss_rate": s.miss_rate.format(),
+        "lead_time_median_s": s.lead_time.median,
+    }
+
+
+def on_off_table(
+    title: str,
+    off: dict[str, FCWSummary],
+    on: dict[str, FCWSummary],
+    *,
+    subject: str = "equipped",
+    same: str = "same seed",
+):
+    """The per-method table of a traffic study run with FCW off and on.
+
+    ``off``: every method's metrics of the open-loop run (no driver hears an alert); ``on``:
+    the closed-loop run, whose single method's alerts make the drivers brake, on the same
+    traffic (``same`` says how it is the same).  One row per method of ``off`` (its
+    :func:`summary_row` and its collisions with FCW off), then notes: the exposure and the
+    collisions of the ``subject`` vehicles with FCW off and on.
+    """
+    from acc_fusion.studies.estimation import Table
+
+    t = Table(title, (*SUMMARY_COLUMNS, "collisions_fcw_off"))
+    for m, s in off.items():
+        t.rows.append({**summary_row(m, s), "collisions_fcw_off": s.collisions})
+    drive, on_summary = next(iter(on.items()), (None, None))
+    first = next(iter(off.values()), None)
+    if first is not None:
+        t.notes.append(f"exposure: {first.hours:.2f} h, {first.km:.1f} km of {subject} driving")
+    if on_summary is not None:
+        t.notes.append(
+            f"{subject}-vehicle collisions: {first.collisions if first else '-'} with FCW off, "
+            f"{on_summary.collisions} with {drive} FCW on ({same})"
+        )
+    return t
+
+
+def compare_config(**overrides) -> SimConfig:
+    """The comparison's defaults: the randomised suite, radar clutter, open loop."""
+    overrides.setdefault("radar", COMPARE_CLUTTER)
+    return SimConfig(**{"scenario": "random", **overrides})
+
+
+@dataclass
+class Comparison:
+    """Open-loop metrics of every method plus collisions with warnings on and off."""
+
+    result: SimResult
+    collisions: dict[str, int]
+
+    def table(self):
+        """The false-alarm / miss / lead-time table with 95 % intervals."""
+        from acc_fusion.studies.estimation import Table
+
+        cfg = self.result.config
+        level = "imminent" if cfg.warn_level == IMMINENT else "caution"
+        t = Table(
+            f"FCW comparison: {cfg.runs} runs of '{cfg.scenario}', seed {cfg.seed}, "
+            f"{level} alerts, tolerance {cfg.tolerance:g} s, 95% intervals",
+            (*SUMMARY_COLUMNS, "ttc_at_warning_median_s"),
+        )
+        for m, s in self.result.summaries.items():
+            t.rows.append({**summary_row(m, s), "ttc_at_warning_median_s": s.ttc_at_warning.median})
+        first = next(iter(self.result.summaries.values()))
+        c = self.collisions
+        t.notes += [
+            f"exposure: {first.hours:.2f} h, {first.km:.1f} km of driving",
+            f"closed loop ({c['drive']} alerts a driver who brakes after his reaction time): "
+            f"{c['on']} collisions in {c['runs']} runs with warnings, {c['off']} without",
+        ]
+        return t
+
+
+def compare(config: SimConfig, *, progress: bool = False) -> Comparison:
+    """Every method on the same runs (open loop), then collisions with the last method's
+    warnings on and off on the same seeds (closed loop)."""
+    result = simulate(replace(config, drive=None), progress=progress)
+    drive = config.drive or config.methods[-1]
+    closed = replace(config, drive=drive, methods=(drive,))
+    on = simulate(closed, progress=progress)
+    off = simulate(closed, progress=progress, warnings_on=False)
+    collisions = {"drive": drive, "on": int(on.collided.sum()), "off": int(off.collided.sum())}
+    return Comparison(result, {**collisions, "runs": config.runs})
+
+
+@dataclass
+class ConformanceResult:
+    """TTC at the first warning of every trial of every standard manoeuvre."""
+
+    requirement: object
+    ttc: np.ndarray
+    passed: np.ndarray
+    needed: int
+
+    @property
+    def ok(self) -> bool:
+        return int(self.passed.sum()) >= self.needed
+
+
+def conformance(
+    trials: int = 7, seed: int = 0, base: SimConfig | None = None, *, progress: bool = False
+) -> list[ConformanceResult]:
+    """Run every standard manoeuvre of :mod:`acc_fusion.metrics.protocols` with noisy sensors.
+
+    Each manoeuvre runs ``trials`` trials (open loop: the subject vehicle keeps its test
+    speed, as in the protocols) with the federated method (or ``base.methods[-1]``); a trial
+    passes when its first alert comes at a TTC of at least the requirement, and the
+    manoeuvre passes when at least ``min_passes / n_trials`` of its trials pass (5 of 7).
+    """
+    from acc_fusion.metrics.protocols import REQUIREMENTS
+
+    base = base or SimConfig()
+    method = base.methods[-1]
+    out = []
+    for name, req in REQUIREMENTS.items():
+        cfg = replace(base, scenario=name, runs=trials, seed=seed, methods=(method,), drive=None)
+        first = FirstWarning(trials, method, cfg.warn_level)
+        simulate(cfg, progress=progress, on_step=first)
+        passed = req.trial_passes(first.ttc)
+        needed = int(np.ceil(req.min_passes * trials / req.n_trials - 1e-9))
+        out.append(ConformanceResult(req, first.ttc, passed, needed))
+    return out

@@ -1,0 +1,3 @@
+"""Monte Carlo sweeps: axes, expansion into chunks, executors (local, Ray), the resumable store,
+aggregation and the report.
+"""

@@ -1,0 +1,209 @@
+r"""The simulated driver who reacts to forward-collision warnings (closes the loop).
+
+Pipeline: ... → warning → **driver** → truth source (``ScenarioSource.advance(ego_brake)``).
+Each of N drivers (one per run) watches the warning level of his run:
+
+1. At a warning *onset* (the level rises to ``react_to_level`` or above while he is neither
+   reacting nor braking) he starts reacting.
+2. After his reaction time :math:`t_r` he brakes with his deceleration :math:`d`: the first
+   step with :math:`t \ge t_{\text{onset}} + t_r` (exact to the step).
+3. He releases by the ``release`` rule, watching the road (the truth frame): ``not_closing``
+   (default) when he no longer closes on his lead (range-rate >= 0, or no lead) or the ego
+   has stopped; ``warning_ended`` as ``not_closing`` but only once the warning has also ended;
+   ``stopped`` only when the ego has stopped.
+4. A later warning onset starts a new reaction.
+
+Per-driver draws (at construction, from ``numpy.random.default_rng(seed)``; same seed, same
+drivers):
+
+.. math::
+
+    t_r = \operatorname{clip}\left(m\, e^{s z_1},\ t_{\min}, t_{\max}\right),\qquad
+    d = \operatorname{clip}\left(\mu + \sigma z_2,\ d_{\min}, d_{\max}\right),\qquad
+    z_1, z_2 \sim N(0, 1)
+
+Where the numbers come from (see :class:`DriverConfig` for the values):
+
+- Reaction time.  Green (2000) finds that expectation dominates brake reaction time: about
+  0.70-0.75 s when the driver expects the signal, about 1.25 s for an unexpected but common
+  signal (a lead car's brake lights), about 1.5 s for a surprise.  Lee, McGehee, Brown & Reyes
+  (2002) show that a collision warning shortens the time drivers take to release the
+  accelerator but not the time to reach the brake.  A warned driver therefore sits between
+  Green's "expected" and "surprise" values: the default log-normal has median 1.1 s and log-sd
+  0.3 (90 % of drivers between 0.67 and 1.8 s), clipped to 0.5-3 s.  The log-normal shape is
+  the usual right-skewed reaction-time model; the median and spread are our fit to Green's
+  range (assumption, not a fitted data set).
+- Deceleration.  Lee et al. (2002): warnings do not raise the drivers' maximum or mean
+  deceleration.  The CAMP closed-course studies of "last-second" hard braking (Kiefer et al.
+  1999; Kiefer, LeBlanc & Flannagan 2005) model the driver's braking in response to an alert;
+  their hard-braking levels are commonly summarised as about 0.4-0.6 g.  Default: normal with
+  mean 0.5 g and sd 0.08 g, clipped to 0.3-0.9 g (assumption matching that range; the CAMP
+  distributions themselves were not available here).
+
+Sources: M. Green, "'How long does it take to stop?' Methodological analysis of driver
+perception-brake times", Transportation Human Factors 2(3):195-216, 2000; J. D. Lee,
+D. V. McGehee, T. L. Brown, M. L. Reyes, "Collision warning timing, driver distraction, and
+driver response to imminent rear-end collisions in a high-fidelity driving simulator",
+Human Factors 44(2):314-334, 2002; R. J. Kiefer et al., *Development and validation of
+functional definitions and evaluation procedures for collision warning/avoidance systems*
+(CAMP), DOT HS 808 964, 1999; R. J. Kiefer, D. J. LeBlanc, C. A. Flannagan, "Developing an
+inverse time-to-collision crash alert timing approach based on drivers' last-second braking
+and steering judgments", Accident Analysis & Prevention 37(2):295-303, 2005.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.slots import PairState
+from acc_fusion.core.validation import check_array, check_choice, check_interval, check_range
+from acc_fusion.truth.frame import TruthFrame
+from acc_fusion.truth.scripted import TIME_TOL, G
+
+#: The release rules of :class:`DriverConfig`.
+RELEASE_RULES = ("not_closing", "warning_ended", "stopped")
+
+
+@dataclass(frozen=True)
+class DriverConfig:
+    """How the simulated drivers react (all fields validated on construction).
+
+    Attributes:
+        reaction_time_median: median reaction time [s]; 1.1.
+        reaction_time_log_sd: standard deviation of ``ln`` reaction time; 0.3.
+        reaction_time_range: ``(low, high)`` clip of the reaction time [s]; (0.5, 3.0).
+        deceleration_mean: mean braking deceleration [m/s²]; 0.5 g.
+        deceleration_sd: its standard deviation [m/s²]; 0.08 g.
+        deceleration_range: ``(low, high)`` clip of the deceleration [m/s²]; (0.3 g, 0.9 g).
+        react_to_level: lowest warning level the driver reacts to; 1 (caution).
+        release: when he stops braking, one of :data:`RELEASE_RULES`; ``"not_closing"``.
+    """
+
+    reaction_time_median: float = 1.1
+    reaction_time_log_sd: float = 0.3
+    reaction_time_range: tuple[float, float] = (0.5, 3.0)
+    deceleration_mean: float = 0.5 * G
+    deceleration_sd: float = 0.08 * G
+    deceleration_range: tuple[float, float] = (0.3 * G, 0.9 * G)
+    react_to_level: int = 1
+    release: str = "not_closing"
+
+    def __post_init__(self) -> None:
+        checked = {
+            "reaction_time_median": check_range(
+                "driver.reaction_time_median", self.reaction_time_median, 0.0, 10.0, lo_open=True
+            ),
+            "reaction_time_log_sd": check_range(
+                "driver.reaction_time_log_sd", self.reaction_time_log_sd, 0.0, 3.0
+            ),
+            "reaction_time_range": check_interval(
+                "driver.reaction_time_range", self.reaction_time_range, lo_open=True
+            ),
+            "deceleration_mean": check_range(
+                "driver.deceleration_mean", self.deceleration_mean, 0.0, 15.0, lo_open=True
+            ),
+            "deceleration_sd": check_range(
+                "driver.deceleration_sd", self.deceleration_sd, 0.0, 15.0
+            ),
+            "deceleration_range": check_interval(
+                "driver.deceleration_range", self.deceleration_range, lo_open=True
+            ),
+            "release": check_choice("driver.release", self.release, RELEASE_RULES),
+        }
+        level = self.react_to_level
+        if isinstance(level, bool) or not isinstance(level, (int, np.integer)) or level < 1:
+            raise ConfigError(f"driver.react_to_level must be an integer >= 1, got {level!r}")
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+
+class Driver(PairState):
+    """N simulated drivers, one per run (see the module docstring).
+
+    Args:
+        n_runs: number of runs N.
+        config: the drivers' :class:`DriverConfig` (default: defaults).
+        seed: seed of the generator (``int``, ``numpy.random.Generator`` or ``None``).
+
+    Attributes:
+        reaction_time: ``(N,)`` each driver's reaction time [s].
+        deceleration: ``(N,)`` each driver's braking deceleration [m/s²].
+    """
+
+    _PAIR_AXES = dict.fromkeys(
+        ("reaction_time", "deceleration", "_onset", "_braking", "_warned"), 0
+    )
+
+    def __init__(
+        self,
+        n_runs: int,
+        config: DriverConfig | None = None,
+        seed: int | np.random.Generator | None = None,
+    ) -> None:
+        if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 1:
+            raise ConfigError(f"n_runs must be an integer >= 1, got {n_runs!r}")
+        self.n_runs = int(n_runs)
+        self.config = config = DriverConfig() if config is None else config
+        z = np.random.default_rng(seed).standard_normal((2, self.n_runs))
+        self.reaction_time = np.clip(
+            config.reaction_time_median * np.exp(config.reaction_time_log_sd * z[0]),
+            *config.reaction_time_range,
+        )
+        self.deceleration = np.clip(
+            config.deceleration_mean + config.deceleration_sd * z[1], *config.deceleration_range
+        )
+        self._onset = np.full(self.n_runs, np.nan)
+        self._braking = np.zeros(self.n_runs, dtype=bool)
+        self._warned = np.zeros(self.n_runs, dtype=bool)
+
+    @property
+    def braking(self) -> np.ndarray:
+        """``(N,)`` drivers braking now."""
+        return self._braking.copy()
+
+    def reset(self, mask: np.ndarray) -> None:
+        """Forget the warning and braking state of the runs in ``mask`` (a new driver's
+        vehicle in that slot keeps the slot's reaction time and deceleration draws)."""
+        self._onset[mask] = np.nan
+        self._braking[mask] = False
+        self._warned[mask] = False
+
+    def _resized(self, m: int) -> None:
+        self.n_runs = m
+
+    def step(self, warning: np.ndarray, frame: TruthFrame) -> np.ndarray:
+        """The brake request of every driver for the step starting at ``frame.t``.
+
+        Args:
+            warning: ``(N,)`` warning level of each run (0 = none; ``bool`` is level 1).
+            frame: what the drivers see: the truth at this step (time, ego speed, range-rate).
+
+        Returns:
+            ``(N,)`` requested deceleration [m/s², >= 0]; 0 where the driver does not brake.
+        """
+        level = check_array("warning", warning, (self.n_runs,))
+        if frame.n_pairs != self.n_runs:
+            raise InputError(f"frame must hold {self.n_runs} runs, got {frame.n_pairs}")
+        t = frame.t
+        warned = level >= self.config.react_to_level
+        idle = np.isnan(self._onset) & ~self._braking
+        self._onset[warned & ~self._warned & idle] = t
+        self._warned = warned
+        due = t >= self._onset + self.reaction_time - TIME_TOL  # False where no onset (NaN)
+        self._braking |= due
+        self._onset[due] = np.nan
+        self._braking &= ~self._released(warned, frame)
+        return np.where(self._braking, self.deceleration, 0.0)
+
+    def _released(self, warned: np.ndarray, frame: TruthFrame) -> np.ndarray:
+        """Drivers whose release condition holds now."""
+        stopped = frame.ego_speed <= 0.0
+        if self.config.release == "stopped":
+            return stopped
+        not_closing = ~frame.has_leader | (frame.range_rate >= 0.0) | stopped
+        if self.config.release == "warning_ended":
+            return not_closing & ~warned
+        return not_closing

@@ -1,0 +1,2 @@
+"""highway-env as a truth source.
+"""

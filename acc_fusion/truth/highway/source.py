@@ -1,0 +1,994 @@
+r"""highway-env truth source: ground truth of follower→leader pairs in highway-env traffic.
+
+Pipeline stage 1 (**truth source** → sensors → ...), like
+:class:`~acc_fusion.truth.sumo.source.SumoSource`,
+but the traffic is simulated by highway-env (E. Leurent, *An environment for autonomous
+driving decision-making*, https://github.com/Farama-Foundation/HighwayEnv): the environments
+of :data:`SUPPORTED`, whose road carries traffic.  :class:`HighwaySource` offers the interface
+the FCW loop drives (``frame()``, ``advance(ego_brake)``, ``t``, ``dt``, ``n_steps``,
+``done``, ``active``, ``collided``, ``collision_speed``, ``reassigned``), plus what a
+single-ego gymnasium environment needs (:meth:`HighwaySource.restart`,
+:attr:`~HighwaySource.terminated`, :attr:`~HighwaySource.truncated`,
+:meth:`~HighwaySource.render`).
+
+Slots
+    ``pairs="controlled"``: one slot per controlled vehicle (highway-env's
+    ``controlled_vehicles``, 1 by default).  ``pairs="all"``: one slot per vehicle on the road,
+    the controlled ones first, so one simulation yields many pairs.  N (the number of slots)
+    is fixed by the first episode; a later episode with fewer vehicles leaves the last slots
+    inactive, one with more tracks only the first N (a warning is issued once).
+
+Episodes
+    The source runs ``episodes`` highway-env episodes one after another; episode *k* is
+    ``env.reset(seed=seed + k)``, so FCW off and FCW on runs see the same initial traffic.  An
+    episode ends when highway-env terminates it (the controlled vehicle crashed; in
+    ``merge-v0`` also when it has passed the merge) or after ``duration`` seconds.  That end
+    frame is delivered (with its collision flags); the next :meth:`~HighwaySource.advance`
+    starts the next episode and flags its slots in :attr:`~HighwaySource.reassigned`, so the
+    FCW loop resets their filters, warning logic and driver.  Time :attr:`~HighwaySource.t`
+    runs on across episodes (one step per reset), so the metrics see one timeline.
+
+Stepping at the simulation frequency
+    highway-env's ``env.step`` advances ``simulation_frequency / policy_frequency`` simulation
+    steps (15 by default) per policy step.  The source instead does one simulation step per
+    :meth:`~HighwaySource.advance`, exactly as ``AbstractEnv._simulate`` does: ``road.act()``
+    (every vehicle decides; the controlled vehicles keep their highway-env controller's action,
+    i.e. the ``IDLE`` meta-action: hold the lane and the target speed), then ``road.step(dt)``
+    (kinematics and collisions), with :math:`\Delta t` = 1 / ``simulation_frequency``.  The
+    controlled vehicle holds its speed whatever is ahead (highway-env's ``MDPVehicle`` has no
+    car-following model): an inattentive driver, so threats arise from the traffic itself.
+
+Truth of a slot (``(N,)`` arrays of the :class:`~acc_fusion.truth.frame.TruthFrame`)
+    The leader is the nearest vehicle ahead on the ego's lane, as highway-env's own
+    ``Road.neighbour_vehicles`` defines it: every vehicle whose position, in the local
+    coordinates :math:`(s, r)` of the ego's lane (``lane.local_coordinates``), lies on that
+    lane (:math:`|r| \le w/2 + 1` m, :math:`-5 \le s < \ell_{\text{lane}} + 5` m), with
+    :math:`s \ge s_{\text{ego}}`; road objects (``merge-v0``'s end-of-ramp obstacle) are not
+    targets.  Vehicle positions are their centres, so the bumper-to-bumper gap is
+
+    .. math::
+
+        g = s_{\text{lead}} - s_{\text{ego}} - \tfrac12 (\ell_{\text{lead}} + \ell_{\text{ego}})
+
+    with :math:`\ell` the vehicles' ``LENGTH``; leaders farther than ``lookahead`` are not
+    reported.  Speeds are along the ego's lane, :math:`u = v \cos(\psi - \psi_{\text{lane}})`
+    (``psi`` the vehicle's heading, :math:`\psi_{\text{lane}}` the lane's direction), so that
+    the range-rate :math:`u_{\text{lead}} - u_{\text{ego}}` is :math:`\dot g` (highway-env's
+    ``velocity`` likewise ignores the slip angle); accelerations are
+    :math:`(v_k - v_{k-1}) / \Delta t`, which is highway-env's commanded acceleration exactly
+    (0 at an episode's first frame, before any step).  The lateral offset is
+    :math:`r_{\text{lead}} - r_{\text{ego}}`.  Every vehicle gets an integer id per episode,
+    never reused in the run, so a new leader (a lane change, a cut-in, a new episode) is a new
+    target.
+
+Collisions
+    highway-env marks both vehicles of a contact ``crashed``.  A slot is flagged
+    :attr:`~HighwaySource.collided` when its vehicle crashes into its leader: it is newly
+    crashed, its leader is crashed and the gap is at most :data:`CONTACT_GAP` (highway-env
+    separates the two polygons on impact, leaving a gap of 0), with the impact speed
+    :math:`u_{\text{ego}} - u_{\text{lead}}`.  A vehicle rear-ended by another is crashed but
+    not flagged (no forward-collision failure), as in :mod:`acc_fusion.truth.sumo.source`.  A
+    crashed
+    vehicle's slot is inactive from the next step on.  ``highway-fast-v0`` checks collisions
+    of the controlled vehicles only, so there other vehicles never crash.
+
+Closed loop
+    :meth:`~HighwaySource.advance` takes each slot's brake request :math:`a` [m/s²] (from
+    :class:`acc_fusion.truth.driver.Driver`, which models the reaction time): after ``road.act()``
+    the vehicle's longitudinal action is overridden by :math:`-\min(a, v/\Delta t)` (it stops,
+    never reverses); its steering is unchanged.  At the first step without a request the
+    vehicle's own controller acts again, with its target speed (highway-env's cruise set point
+    of the controlled vehicle, the desired speed of the IDM ones) lowered to the speed the
+    driver braked to: a driver who braked for a warning does not speed up into the same
+    leader again (our assumption; highway-env's controlled vehicle would otherwise return to
+    its target speed and close in again, warning after warning).
+
+Reproducibility
+    highway-env draws everything from ``env.np_random``, seeded by ``env.reset(seed=...)``; the
+    source draws nothing, so a run is reproducible from its config.
+
+Sources: highway-env 1.12 (``AbstractEnv._simulate``, ``Road.neighbour_vehicles``,
+``Vehicle.step``, ``RoadObject.handle_collisions``, ``EnvViewer``), verified against the
+installed package: gaps at impact are 0 in all three environments, the rendered frame is
+``screen_height × screen_width × 3`` and its viewer's ``sim_surface.vec2pix`` maps world
+coordinates [m] to its pixels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from acc_fusion.core.errors import AccFusionError, ConfigError, InputError
+from acc_fusion.core.validation import check_array, check_choice, check_range
+from acc_fusion.metrics.events import FCWSummary
+from acc_fusion.sim.closed_loop import SimConfig, StepView, on_off_table, simulate
+from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.sumo.source import WARNING_COLORS
+from acc_fusion.warning.logic import LEVEL_NAMES, WarningConfig
+from acc_fusion.warning.safety import safety_distances
+
+#: highway-env environments with a road carrying traffic that the source supports.
+SUPPORTED = ("highway-v0", "highway-fast-v0", "merge-v0")
+#: Which vehicles are egos: the controlled vehicles only, or every vehicle on the road.
+PAIRS = ("controlled", "all")
+#: How to install the optional dependency.
+INSTALL = "pip install 'acc_fusion[highway]'"
+#: Episode length [s] when neither the config nor the environment gives a ``duration``.
+DEFAULT_DURATION = 40.0
+#: Largest gap [m] at which a newly crashed vehicle counts as having hit its leader.
+CONTACT_GAP = 0.5
+#: highway-env's lane tolerances of ``Road.neighbour_vehicles``: lateral margin [m] and
+#: longitudinal overhang [m] (``AbstractLane.VEHICLE_LENGTH``).
+LANE_MARGIN, LANE_OVERHANG = 1.0, 5.0
+#: Replay formats: Pillow writes GIF, imageio with ffmpeg writes MP4.
+REPLAY_SUFFIXES = (".gif", ".mp4")
+#: Height of the replay's text band under the highway-env frame [px].
+BAND_PX = 34
+
+
+class HighwayError(AccFusionError, RuntimeError):
+    """The source was used out of order (advanced after it ended, rendered without
+    ``render=True``) or highway-env changed its vehicles in a way the source does not follow."""
+
+
+def load_highway_env() -> Any:
+    """Import highway-env (registering its environments) and return the module.
+
+    Raises:
+        ConfigError: highway-env is not installed (the message gives the install command).
+    """
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    try:
+        import highway_env
+    except ImportError:
+        raise ConfigError(f"the highway backend needs highway-env: {INSTALL}") from None
+    return highway_env
+
+
+def _whole(name: str, value: object, low: int, high: int) -> int:
+    """``value`` as an int in ``[low, high]`` (bools refused), else a ConfigError."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ConfigError(f"{name} must be a whole number, got {value!r}")
+    if not low <= value <= high:
+        raise ConfigError(f"{name} must be in [{low}, {high}], got {value!r}")
+    return int(value)
+
+
+@dataclass(frozen=True)
+class HighwayConfig:
+    """Settings of a :class:`HighwaySource` (validated on construction; SI units).
+
+    Attributes:
+        env: highway-env environment id, one of :data:`SUPPORTED`; ``"highway-v0"``.
+        episodes: episodes run one after another; 10.
+        seed: episode *k* is reset with seed ``seed + k``; 0.
+        duration: seconds per episode [s]; ``None``: the environment's ``duration`` (40 s in
+            ``highway-v0``, 30 s in ``highway-fast-v0``), else :data:`DEFAULT_DURATION`
+            (``merge-v0``, which usually ends earlier when the ego has passed the merge).
+        pairs: ``"all"`` (every vehicle is an ego; default) or ``"controlled"`` (only the
+            controlled vehicles), see :data:`PAIRS`.
+        vehicles_count: highway-env's ``vehicles_count`` (uncontrolled vehicles); ``None``
+            keeps the environment's (50 in ``highway-v0``, 20 in ``highway-fast-v0``;
+            ``merge-v0`` has a fixed population and refuses it).
+        simulation_frequency: highway-env's ``simulation_frequency`` [Hz], the source's step
+            is its inverse; ``None`` keeps the environment's (15 Hz, ``highway-fast-v0`` 5 Hz).
+        lookahead: leaders farther than this are not reported [m]; 250 (long-range radar).
+        env_config: further highway-env config entries (e.g. ``{"lanes_count": 3}``); keys
+            must exist in the environment's ``default_config()`` (checked when the source
+            opens); {}.
+    """
+
+    env: str = "highway-v0"
+    episodes: int = 10
+    seed: int = 0
+    duration: float | None = None
+    pairs: str = "all"
+    vehicles_count: int | None = None
+    simulation_frequency: int | None = None
+    lookahead: float = 250.0
+    env_config: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check_choice("env", self.env, SUPPORTED)
+        _whole("episodes", self.episodes, 1, 10_000_000)
+        _whole("seed", self.seed, 0, 2**63 - 1)
+        if self.duration is not None:
+            check_range("duration", self.duration, 0.0, 1e6, lo_open=True)
+        check_choice("pairs", self.pairs, PAIRS)
+        if self.vehicles_count is not None:
+            _whole("vehicles_count", self.vehicles_count, 0, 10_000)
+        if self.simulation_frequency is not None:
+            _whole("simulation_frequency", self.simulation_frequency, 1, 1000)
+        check_range("lookahead", self.lookahead, 0.0, math.inf, lo_open=True, hi_open=True)
+        if not isinstance(self.env_config, Mapping) or not all(
+            isinstance(k, str) for k in self.env_config
+        ):
+            raise ConfigError(f"env_config must be a mapping of names, got {self.env_config!r}")
+        object.__setattr__(self, "env_config", dict(self.env_config))
+
+    def overrides(self) -> dict[str, Any]:
+        """The highway-env config entries this config sets."""
+        out = dict(self.env_config)
+        if self.vehicles_count is not None:
+            out["vehicles_count"] = int(self.vehicles_count)
+        if self.simulation_frequency is not None:
+            out["simulation_frequency"] = int(self.simulation_frequency)
+        return out
+
+
+def make_env(config: HighwayConfig, render: bool = False) -> Any:
+    """The unwrapped highway-env environment of ``config``, configured (not yet reset with
+    the episode seed).  ``render``: with the ``rgb_array`` renderer.
+
+    Raises:
+        ConfigError: highway-env is missing, or an override names no entry of the
+            environment's config.
+    """
+    load_highway_env()
+    import gymnasium as gym
+
+    if render:
+        _check_video_driver()
+    with warnings.catch_warnings():  # merge-v0 is "out of date" (merge-v1 adds connected lanes)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make(config.env, render_mode="rgb_array" if render else None).unwrapped
+    overrides = config.overrides()
+    unknown = sorted(set(overrides) - set(env.config))
+    if unknown:
+        env.close()
+        raise ConfigError(
+            f"{config.env} has no config entry {unknown[0]!r}; its entries are "
+            f"{', '.join(sorted(env.config))}"
+        )
+    env.configure(overrides)
+    return env
+
+
+def _check_video_driver() -> None:
+    """highway-env's viewer draws nothing under SDL's ``dummy`` driver; SDL picks its
+    ``offscreen`` driver by itself when there is no display."""
+    if os.environ.get("SDL_VIDEODRIVER") == "dummy":
+        raise ConfigError(
+            "SDL_VIDEODRIVER=dummy makes highway-env render blank frames; unset it (or set "
+            "it to 'offscreen') to render"
+        )
+
+
+class HighwaySource(SlotSource):
+    """Ground truth of follower→leader pairs in highway-env traffic (see the module docstring).
+
+    Args:
+        config: the :class:`HighwayConfig`.
+        render: build highway-env's ``rgb_array`` renderer (for :meth:`render`).
+        progress: show a progress bar over the episodes.
+
+    Raises:
+        ConfigError: highway-env is not installed, or a bad config override.
+
+    Attributes:
+        env: the unwrapped highway-env environment.
+        n_pairs: number of slots N.
+        dt: simulation step [s] (1 / ``simulation_frequency``).
+        duration: seconds per episode [s].
+        episode: index of the current episode.
+        n_crashes: vehicles that crashed so far (any, slotted or not).
+        n_collisions: slot vehicles that ran into their leader so far.
+
+    Use it as a context manager (or call :meth:`close`)::
+
+        with HighwaySource(HighwayConfig("highway-v0", episodes=3)) as src:
+            frame = src.frame()
+            while not src.done:
+                frame = src.advance(brake)
+    """
+
+    def __init__(
+        self, config: HighwayConfig, *, render: bool = False, progress: bool = False
+    ) -> None:
+        if not isinstance(config, HighwayConfig):
+            raise ConfigError(f"config must be a HighwayConfig, got {type(config).__name__}")
+        self.config = cfg = config
+        self.env = make_env(cfg, render)
+        self._render = render
+        from highway_env.road.lane import SineLane, StraightLane
+
+        self._straight, self._sine = StraightLane, SineLane
+        self.dt = 1.0 / float(self.env.config["simulation_frequency"])
+        own = self.env.config.get("duration")
+        self.duration = float(cfg.duration or own or DEFAULT_DURATION)
+        self._ep_steps = max(1, int(math.ceil(self.duration / self.dt - 1e-6)))
+        self._next_int = 0
+        self._t = 0.0
+        self.n_crashes = self.n_collisions = 0
+        self._done = self._closed = False
+        self._warned = False
+        self._bar = tqdm(
+            total=cfg.episodes,
+            disable=None if progress else True,
+            desc=cfg.env,
+            unit="episode",
+            leave=False,
+        )
+        self.n_pairs = 0  # set by the first episode
+        self._start(cfg.seed, 0, first=True)
+
+    # ---------------------------------------------------------------- public state
+    @property
+    def t(self) -> float:
+        """Simulation time since the first episode began [s] (runs on across episodes)."""
+        return self._t
+
+    @property
+    def n_steps(self) -> int:
+        """Upper bound of the steps of the run: every episode's steps plus one reset each
+        (episodes that end early make the run shorter; see :attr:`done`)."""
+        return self.config.episodes * (self._ep_steps + 1)
+
+    @property
+    def done(self) -> bool:
+        """Every episode has ended (or the source is closed)."""
+        return self._done
+
+    @property
+    def terminated(self) -> bool:
+        """highway-env terminated the current episode at this step (crash, merge passed)."""
+        return self._terminated
+
+    @property
+    def truncated(self) -> bool:
+        """The current episode reached ``duration`` at this step (and was not terminated)."""
+        return self._truncated
+
+    @property
+    def vehicles(self) -> list:
+        """The highway-env vehicle of each occupied slot, in slot order."""
+        return list(self._slot_vehicles)
+
+    def id_of(self, vehicle: Any) -> int:
+        """The integer id (``leader_id``) of a highway-env vehicle of the current episode."""
+        for j, v in enumerate(self.env.road.vehicles):
+            if v is vehicle:
+                return int(self._vint[j])
+        raise InputError("the vehicle is not on the current episode's road")
+
+    # ---------------------------------------------------------------- stepping
+    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+        """Apply the brake requests, run one highway-env simulation step, return the frame.
+
+        After an episode's end frame, the step starts the next episode instead (its first
+        frame, slots :attr:`reassigned`); after the last episode, :attr:`done` turns true and
+        every slot is inactive.
+
+        Args:
+            ego_brake: ``(N,)`` deceleration requested by each slot's driver [m/s², >= 0];
+                0 or NaN (or ``None`` for all): no request.
+
+        Raises:
+            HighwayError: the run is over (use :meth:`restart`) or closed.
+        """
+        if self._done:
+            what = "closed" if self._closed else "over; restart() it or open a new source"
+            raise HighwayError(f"the highway-env run is {what}")
+        brake = None
+        if ego_brake is not None:
+            brake = check_array("ego_brake", ego_brake, (self.n_pairs,), finite=False)
+            brake = check_array("ego_brake", np.nan_to_num(brake, nan=0.0), nonnegative=True)
+        self._t += self.dt
+        self._reassigned = np.zeros(self.n_pairs, dtype=bool)
+        if self._terminated or self._truncated:
+            self._bar.update(1)
+            if self.episode + 1 < self.config.episodes:
+                self._start(self.config.seed + self.episode + 1, self.episode + 1)
+            else:
+                self._finish()
+            return self._frame
+        env, dt = self.env, self.dt
+        braking = np.zeros(self.n_pairs, dtype=bool) if brake is None else brake > 0
+        braking &= self._active
+        for slot in np.flatnonzero(self._braking & ~braking & self._occupied):
+            v = self._slot_vehicles[slot]  # released: the driver keeps the speed he braked to
+            v.target_speed = min(v.target_speed, max(v.speed, 0.0))
+        self._braking = braking
+        env.road.act()
+        for slot in np.flatnonzero(braking):
+            v = self._slot_vehicles[slot]
+            v.action["acceleration"] = -min(float(brake[slot]), max(v.speed, 0.0) / dt)
+        env.road.step(dt)
+        env.steps += 1
+        self._ep_k += 1
+        env.time = self._ep_k * dt
+        self._read()
+        self._terminated = bool(env._is_terminated())
+        self._truncated = not self._terminated and self._ep_k >= self._ep_steps
+        return self._frame
+
+    def restart(self, mask: np.ndarray, seed: int | np.random.Generator | None) -> None:
+        """Start a new episode now, reset with ``seed`` (an ``int``, or an integer drawn from
+        a ``numpy.random.Generator``), whether or not the run was :attr:`done`.
+
+        The signature of :meth:`acc_fusion.truth.scripted.ScenarioSource.restart`, for the
+        gymnasium environment.  All slots share one highway-env simulation, so ``mask`` must
+        select all of them (restart) or none (nothing happens, nothing is drawn).
+
+        Raises:
+            InputError: ``mask`` is not a boolean ``(N,)`` array selecting all or no slots.
+            HighwayError: the source is closed.
+        """
+        mask = np.asarray(mask)
+        if mask.shape != (self.n_pairs,) or mask.dtype != bool:
+            raise InputError(f"mask must be a boolean array of shape ({self.n_pairs},)")
+        if not mask.any():
+            return
+        if not mask.all():
+            raise InputError("the slots share one highway-env simulation: restart all or none")
+        if self._closed:
+            raise HighwayError("the highway-env run is closed; open a new source")
+        if isinstance(seed, np.random.Generator):
+            seed = int(seed.integers(2**63))
+        self._done = False
+        self._start(seed, self.episode + 1)
+
+    def render(self) -> np.ndarray:
+        """highway-env's ``rgb_array`` frame of the current state, ``(H, W, 3)`` uint8,
+        centred on the first controlled vehicle (slot 0)."""
+        if not self._render:
+            raise HighwayError("render() needs HighwaySource(..., render=True)")
+        return self.env.render()
+
+    def pixel_ahead(self, slot: int, distance: float) -> tuple[int, int]:
+        """Pixel of the last :meth:`render` frame at ``distance`` [m] ahead of the front
+        bumper of ``slot``'s vehicle, along its heading."""
+        v = self._slot_vehicles[slot]
+        ahead = 0.5 * v.LENGTH + distance
+        point = v.position + ahead * np.array([math.cos(v.heading), math.sin(v.heading)])
+        return self.env.viewer.sim_surface.vec2pix(point)
+
+    def close(self) -> None:
+        """Close highway-env (and its renderer); idempotent."""
+        self._done = self._closed = True
+        self._bar.close()
+        self.env.close()
+
+    # ---------------------------------------------------------------- internals
+    def _start(self, seed: int | None, episode: int, first: bool = False) -> None:
+        """Reset highway-env to episode ``episode`` and put its vehicles into the slots (the
+        ``first`` episode fixes the number of slots)."""
+        env = self.env
+        env.reset(seed=seed)
+        self.episode = episode
+        env.time = 0.0
+        self._ep_k = 0
+        road = env.road
+        controlled = list(env.controlled_vehicles)
+        if self.config.pairs == "all":
+            chosen = set(map(id, controlled))
+            egos = controlled + [v for v in road.vehicles if id(v) not in chosen]
+        else:
+            egos = controlled
+        if first:
+            self.n_pairs = len(egos)
+        n = self.n_pairs
+        if len(egos) > n and not self._warned:
+            self._warned = True
+            warnings.warn(
+                f"episode {self.episode} of {self.config.env} has {len(egos)} egos but the "
+                f"source has {n} slots (set by the first episode); the extra ones are not "
+                "tracked",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        self._slot_vehicles = egos[:n]
+        index = {id(v): j for j, v in enumerate(road.vehicles)}
+        self._slot_vi = np.array([index[id(v)] for v in self._slot_vehicles], dtype=np.intp)
+        m = len(road.vehicles)
+        self._vint = np.arange(self._next_int, self._next_int + m, dtype=np.int64)
+        self._next_int += m
+        self._m = m
+        self._was_crashed = np.zeros(m, dtype=bool)
+        self._prev_speed: np.ndarray | None = None
+        self._lanes: dict[Any, np.ndarray | None] = {}  # the new road's lanes
+        occupied = np.zeros(n, dtype=bool)
+        occupied[: len(self._slot_vehicles)] = True
+        self._occupied = occupied
+        self._active = occupied.copy()
+        self._reassigned = occupied.copy()
+        self._collided = np.zeros(n, dtype=bool)
+        self._collision_speed = np.full(n, np.nan)
+        self._braking = np.zeros(n, dtype=bool)
+        self._terminated = self._truncated = False
+        self._read()
+
+    def _finish(self) -> None:
+        """After the last episode: every slot inactive, an empty frame."""
+        self._done = True
+        self._bar.close()
+        self._active = np.zeros(self.n_pairs, dtype=bool)
+        n = self.n_pairs
+        self._frame = TruthFrame(
+            t=self._t,
+            ego_speed=np.zeros(n),
+            ego_accel=np.zeros(n),
+            gap=np.full(n, np.nan),
+            lead_speed=np.full(n, np.nan),
+            lead_accel=np.full(n, np.nan),
+            leader_id=np.full(n, -1, dtype=np.int64),
+        )
+
+    def _lane_params(self, lane_index: Any) -> np.ndarray | None:
+        """The straight or sine lane ``lane_index`` as one row (cached per episode): start
+        (x, y), direction (x, y), lateral direction (x, y), half width plus margin, length,
+        heading, then the sine's amplitude, pulsation and phase (0 for a straight lane);
+        ``None`` for any other lane type."""
+        row = self._lanes.get(lane_index, False)
+        if row is False:
+            lane = self.env.road.network.get_lane(lane_index)
+            row = None
+            if isinstance(lane, self._straight):
+                sine = isinstance(lane, self._sine)
+                row = np.array(
+                    [
+                        *lane.start,
+                        *lane.direction,
+                        *lane.direction_lateral,
+                        0.5 * lane.width + LANE_MARGIN,
+                        lane.length,
+                        lane.heading,
+                        lane.amplitude if sine else 0.0,
+                        lane.pulsation if sine else 0.0,
+                        lane.phase if sine else 0.0,
+                    ]
+                )
+            self._lanes[lane_index] = row
+        return row
+
+    def _lane_coordinates(self, lanes: list, pos: np.ndarray) -> tuple[np.ndarray, ...]:
+        """For each ego lane (``lanes``, K lane indices) and every vehicle position ``pos``
+        ``(M, 2)``: the local coordinates ``s``, ``r`` on that lane, whether the vehicle is on
+        it (``Road.neighbour_vehicles``' rule) and the lane's direction [rad] there, all
+        ``(K, M)``.  Straight and sine lanes are computed as arrays
+        (``StraightLane.local_coordinates``, ``SineLane.local_coordinates``), other lanes with
+        highway-env's own methods."""
+        rows = [self._lane_params(li) for li in lanes]
+        k, m = len(lanes), len(pos)
+        s, r, half = np.empty((k, m)), np.empty((k, m)), np.empty((k, m))
+        length, psi = np.empty((k, 1)), np.empty((k, m))
+        straight = [i for i, row in enumerate(rows) if row is not None]
+        if straight:
+            q = np.array([rows[i] for i in straight])
+            dx = pos[None, :, 0] - q[:, 0, None]
+            dy = pos[None, :, 1] - q[:, 1, None]
+            ss = dx * q[:, 2, None] + dy * q[:, 3, None]
+            s[straight] = ss
+            r[straight] = dx * q[:, 4, None] + dy * q[:, 5, None]
+            r[straight] -= q[:, 9, None] * np.sin(q[:, 10, None] * ss + q[:, 11, None])
+            half[straight] = q[:, 6, None]
+            length[straight, 0] = q[:, 7]
+            psi[straight] = q[:, 8, None]
+        for i in (i for i, row in enumerate(rows) if row is None):
+            lane = self.env.road.network.get_lane(lanes[i])
+            s[i], r[i] = np.array([lane.local_coordinates(p) for p in pos], dtype=float).T
+            half[i] = [0.5 * lane.width_at(x) + LANE_MARGIN for x in s[i]]
+            psi[i] = [lane.heading_at(x) for x in s[i]]
+            length[i, 0] = lane.length
+        on = (np.abs(r) <= half) & (s >= -LANE_OVERHANG) & (s < length + LANE_OVERHANG)
+        return s, r, on, psi
+
+    def _read(self) -> None:
+        """Fill the frame from highway-env's vehicles (one pass over them, then arrays over
+        ego lanes × vehicles)."""
+        road, n, dt = self.env.road, self.n_pairs, self.dt
+        vs = road.vehicles
+        if len(vs) != self._m:
+            raise HighwayError(
+                f"{self.config.env} changed its number of vehicles within an episode "
+                f"({self._m} -> {len(vs)}), which the supported environments never do"
+            )
+        state = np.array(
+            [(v.position[0], v.position[1], v.speed, v.heading, v.LENGTH, v.crashed) for v in vs]
+        )
+        pos, speed, heading, length = state[:, :2], state[:, 2], state[:, 3], state[:, 4]
+        crashed = state[:, 5].astype(bool)
+        accel = np.zeros(len(vs)) if self._prev_speed is None else (speed - self._prev_speed) / dt
+        self._prev_speed = speed
+        new_crash = crashed & ~self._was_crashed
+        self.n_crashes += int(new_crash.sum())
+
+        slots = np.flatnonzero(self._occupied)
+        vi = self._slot_vi[slots]
+        # One row per distinct ego lane: each slot reads its lane's row.
+        lane_row: dict[Any, int] = {}
+        rows = np.array(
+            [lane_row.setdefault(self._slot_vehicles[i].lane_index, len(lane_row)) for i in slots],
+            dtype=np.intp,
+        )
+        s, r, on, psi = self._lane_coordinates(list(lane_row), pos)
+        u = speed * np.cos(heading - psi)  # (K, M) speeds along each ego lane
+        ar = np.arange(len(slots))
+        ahead = s[rows] - s[rows, vi][:, None]  # (S, M) distance of every vehicle ahead
+        ok = on[rows] & (ahead >= 0.0)
+        ok[ar, vi] = False
+        ahead = np.where(ok, ahead, np.inf)
+        j = np.argmin(ahead, axis=1)
+        d = ahead[ar, j] - 0.5 * (length[vi] + length[j])
+        has = np.isfinite(d) & (d <= self.config.lookahead)
+        hs, hj, hr = slots[has], j[has], rows[has]
+
+        ego_v, ego_a = np.zeros(n), np.zeros(n)
+        gap, lead_v, lead_a = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+        lat = np.zeros(n)
+        leader = np.full(n, -1, dtype=np.int64)
+        lead_vi = np.full(n, -1, dtype=np.intp)
+        ego_v[slots] = np.maximum(u[rows, vi], 0.0)
+        ego_a[slots] = accel[vi]
+        gap[hs] = d[has]
+        lead_v[hs] = u[hr, hj]
+        lead_a[hs] = accel[hj]
+        lat[hs] = r[hr, hj] - r[hr, vi[has]]
+        leader[hs] = self._vint[hj]
+        lead_vi[hs] = hj
+        # Collisions: a newly crashed slot vehicle whose leader crashed at contact.
+        hit = np.zeros(n, dtype=bool)
+        hit[slots] = new_crash[vi]
+        hit &= (lead_vi >= 0) & (np.nan_to_num(gap, nan=np.inf) <= CONTACT_GAP)
+        hit[hit] &= crashed[lead_vi[hit]]
+        hit &= ~self._collided
+        if hit.any():
+            self._collided |= hit
+            self._collision_speed[hit] = ego_v[hit] - lead_v[hit]
+            self.n_collisions += int(hit.sum())
+        # A vehicle that crashed before this step no longer drives.
+        self._active = self._occupied.copy()
+        self._active[slots] &= ~self._was_crashed[vi]
+        self._was_crashed = crashed
+        self._frame = TruthFrame.from_arrays(
+            t=self._t,
+            ego_speed=ego_v,
+            ego_accel=ego_a,
+            gap=gap,
+            lead_speed=lead_v,
+            lead_accel=lead_a,
+            leader_id=leader,
+            lateral_offset=lat,
+        )
+
+
+# -------------------------------------------------------------------- replays
+def check_replay_path(path: str | os.PathLike) -> Path:
+    """Check that a replay can be written to ``path`` (before the run) and return it.
+
+    Raises:
+        ConfigError: the suffix is not one of :data:`REPLAY_SUFFIXES`, or ``.mp4`` without
+            imageio and ffmpeg.
+        AccFusionError: the folder cannot be created or written.
+    """
+    from acc_fusion.core.outputs import output_dir
+
+    p = Path(path)
+    suffix = p.suffix.lower()
+    check_choice("the replay's file type", suffix, REPLAY_SUFFIXES)
+    if suffix == ".mp4":
+        try:
+            import imageio  # noqa: F401
+            import imageio_ffmpeg
+
+            imageio_ffmpeg.get_ffmpeg_exe()
+        except (ImportError, RuntimeError):
+            raise ConfigError(
+                "writing an .mp4 replay needs imageio and ffmpeg: pip install imageio "
+                "imageio-ffmpeg (or write a .gif)"
+            ) from None
+    output_dir(p.parent if str(p.parent) else ".")
+    return p
+
+
+class Replay:
+    """An ``on_step`` hook of :func:`acc_fusion.sim.closed_loop.simulate` that films a highway-env
+    run.
+
+    Every step it takes highway-env's ``rgb_array`` frame (centred on slot 0, the first
+    controlled vehicle) and draws, for slot 0 and ``method``'s estimate: on the road, a white
+    tick at the fused gap ahead of the ego's front bumper and a tick in the warning colour at
+    the imminent safety distance; under the frame, a band with the time, the ego speed, the
+    fused gap (and the true one), the safety distance and the warning level (green none, amber
+    caution, red imminent).  The safety distance is ``warning``'s model at the true ego speed
+    with the estimate's range-rate and lead acceleration.  :meth:`save` writes the file: GIF
+    with Pillow, MP4 with imageio + ffmpeg, at the simulation frequency (real time).
+
+    Args:
+        source: a :class:`HighwaySource` opened with ``render=True``.
+        method: the method whose estimate and warning level are drawn.
+        warning: the warning settings (safety model and parameters).
+        path: the replay file (checked by :func:`check_replay_path`).
+    """
+
+    def __init__(
+        self, source: HighwaySource, method: str, warning: WarningConfig, path: str | os.PathLike
+    ) -> None:
+        self.source, self.method, self.warning = source, method, warning
+        self.path = check_replay_path(path)
+        self.fps = 1.0 / source.dt
+        self._gif = self.path.suffix.lower() == ".gif"
+        self._frames: list = []
+        self._writer = None
+        self._tmp: str | None = None
+        if not self._gif:
+            import imageio.v2 as imageio
+
+            fd, self._tmp = tempfile.mkstemp(
+                dir=self.path.parent, prefix=f".{self.path.name}.", suffix=".mp4"
+            )
+            os.close(fd)
+            self._writer = imageio.get_writer(
+                self._tmp, fps=self.fps, macro_block_size=2, format="FFMPEG"
+            )
+
+    def __call__(self, view: StepView) -> None:
+        from PIL import Image, ImageDraw
+
+        src, frame, i = self.source, view.frame, 0
+        est = view.estimates[self.method]
+        level = int(view.levels[self.method][i])
+        valid = bool(est.valid[i])
+        _, d_imm = safety_distances(
+            self.warning.model,
+            frame.ego_speed[i : i + 1],
+            est.x[i : i + 1, 1] if valid else np.zeros(1),
+            est.x[i : i + 1, 2] if valid else np.zeros(1),
+            self.warning.params,
+        )
+        scene = src.render()
+        h, w = scene.shape[:2]
+        canvas = Image.new("RGB", (w, h + BAND_PX), (25, 25, 25))
+        canvas.paste(Image.fromarray(scene), (0, 0))
+        draw = ImageDraw.Draw(canvas)
+        color = WARNING_COLORS[level][:3]
+        if src.active[i]:
+            for dist, fill in ((float(d_imm[0]), color), (float(est.gap[i]), (255, 255, 255))):
+                if dist == dist and (valid or fill == color):  # NaN-free, gap only if tracked
+                    x, y = src.pixel_ahead(i, dist)
+                    draw.line([(x, y - 9), (x, y + 9)], fill=fill, width=3)
+        draw.rectangle([0, h, 86, h + BAND_PX], fill=color)
+        draw.text((6, h + 11), LEVEL_NAMES[level].upper(), fill=(0, 0, 0))
+        true_gap = f"{frame.gap[i]:.1f}" if frame.has_leader[i] else "-"
+        fused = f"{est.gap[i]:.1f} m" if valid else "no track"
+        draw.text(
+            (94, h + 4),
+            f"t {frame.t:6.2f} s   ego {frame.ego_speed[i]:5.1f} m/s   {self.method}",
+            fill=(230, 230, 230),
+        )
+        draw.text(
+            (94, h + 18),
+            f"fused gap {fused} (true {true_gap})   safety distance {float(d_imm[0]):.1f} m",
+            fill=(230, 230, 230),
+        )
+        if self._gif:
+            self._frames.append(canvas.quantize(colors=64, method=Image.Quantize.FASTOCTREE))
+        else:
+            self._writer.append_data(np.asarray(canvas))
+
+    def save(self) -> Path:
+        """Write the replay (atomically) and return its path."""
+        import io
+
+        from acc_fusion.core.outputs import write_bytes_atomic
+
+        if self._gif:
+            if not self._frames:
+                raise HighwayError("the replay has no frames: the run made no step")
+            buf = io.BytesIO()
+            first, *rest = self._frames
+            first.save(
+                buf,
+                format="GIF",
+                save_all=True,
+                append_images=rest,
+                duration=round(1000.0 / self.fps),
+                loop=0,
+            )
+            write_bytes_atomic(self.path, buf.getvalue())
+            self._frames = []
+        else:
+            self._writer.close()
+            os.replace(self._tmp, self.path)
+            self._tmp = None
+        return self.path
+
+    def discard(self) -> None:
+        """Drop the frames (and the temporary MP4) without writing."""
+        self._frames = []
+        if self._writer is not None and self._tmp is not None:
+            self._writer.close()
+            Path(self._tmp).unlink(missing_ok=True)
+            self._tmp = None
+
+
+# -------------------------------------------------------------------- FCW off / on study
+@dataclass
+class HighwayRun:
+    """What one run of :func:`run_highway` measured.
+
+    Attributes:
+        summaries: metrics of every method of the run.
+        pairs: slots N (egos per episode).
+        episodes: episodes run.
+        crashes: vehicles highway-env marked crashed (any, including rear-ended ones).
+        collisions: egos that ran into their leader (the forward collisions).
+        replay: the replay written, if any.
+    """
+
+    summaries: dict[str, FCWSummary]
+    pairs: int
+    episodes: int
+    crashes: int
+    collisions: int
+    replay: Path | None = None
+
+
+def run_highway(
+    config: HighwayConfig,
+    sim: SimConfig,
+    *,
+    progress: bool = False,
+    replay: str | os.PathLike | None = None,
+) -> HighwayRun:
+    """Run the FCW pipeline of ``sim`` (its step replaced by the source's) on the episodes of
+    ``config``; open loop when ``sim.drive`` is ``None``, else that method's alerts make the
+    egos' drivers brake.  ``replay``: also film the run (see :class:`Replay`, which draws the
+    driving method, else the last one)."""
+    with HighwaySource(config, render=replay is not None, progress=progress) as source:
+        hook = None
+        if replay is not None:
+            hook = Replay(source, sim.drive or sim.methods[-1], sim.warning, replay)
+        try:
+            result = simulate(replace(sim, dt=source.dt), source=source, on_step=hook)
+        except BaseException:
+            if hook is not None:
+                hook.discard()
+            raise
+        written = hook.save() if hook is not None else None
+        return HighwayRun(
+            result.summaries,
+            source.n_pairs,
+            source.episode + 1,
+            source.n_crashes,
+            source.n_collisions,
+            written,
+        )
+
+
+@dataclass
+class HighwayStudy:
+    """FCW metrics in highway-env traffic with FCW off (open loop) and on (closed loop)."""
+
+    config: HighwayConfig
+    off: HighwayRun
+    on: HighwayRun
+
+    def table(self):
+        """Per method: false alarms, misses, lead time, forward collisions with FCW off."""
+        cfg, n = self.config, self.off.episodes
+        egos = "every vehicle" if cfg.pairs == "all" else "the controlled vehicles"
+        t = on_off_table(
+            f"FCW in highway-env traffic: {cfg.env}, {n} episode{'s' * (n != 1)} from seed "
+            f"{cfg.seed}, egos: {egos} ({self.off.pairs} per episode), 95% intervals",
+            self.off.summaries,
+            self.on.summaries,
+            subject="ego",
+            same="same episodes",
+        )
+        t.notes.append(
+            f"highway-env crashes (any vehicle, rear-ended ones included): {self.off.crashes} "
+            f"with FCW off, {self.on.crashes} with FCW on"
+        )
+        return t
+
+
+def highway_study(
+    config: HighwayConfig,
+    sim: SimConfig,
+    *,
+    progress: bool = False,
+    render: str | os.PathLike | None = None,
+) -> HighwayStudy:
+    """Run the episodes of ``config`` with FCW off (every method of ``sim`` watching, no
+    driver warned) and on (the alerts of ``sim.drive``, default the last method, make the
+    drivers brake), one after the other on the same seeds.  ``render``: film the FCW-on run."""
+    drive = sim.drive or sim.methods[-1]
+    off = run_highway(config, replace(sim, drive=None), progress=progress)
+    closed = replace(sim, drive=drive, methods=(drive,))
+    on = run_highway(config, closed, progress=progress, replay=render)
+    return HighwayStudy(config, off, on)
+
+
+# -------------------------------------------------------------------- command line
+def add_highway_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``highway`` command to the ``acc-fusion`` sub-parsers (:func:`cmd_highway`)."""
+    from acc_fusion.cli.main import positive_float, positive_int
+
+    p = subparsers.add_parser(
+        "highway",
+        help="FCW in highway-env traffic: false alarms per method, collisions with FCW on "
+        "and off, rendered replays",
+        description="Run highway-env episodes (highway-v0, highway-fast-v0, merge-v0), "
+        "stepped at the simulation frequency, with every vehicle (or only the controlled "
+        "one) and its leader as a pair. Twice, on the same seeds: FCW off (every method "
+        "watches, no driver is warned) and FCW on (the federated alerts make the drivers "
+        "brake after their reaction time). Prints false alarms per hour and per 100 km, miss "
+        f"rate, lead time and collisions, with 95% intervals. Needs highway-env ({INSTALL}).",
+    )
+    p.add_argument(
+        "--env",
+        default="highway-v0",
+        help=f"environment: {', '.join(SUPPORTED)} (default highway-v0)",
+    )
+    p.add_argument("--episodes", type=positive_int, default=10, help="episodes (default 10)")
+    p.add_argument(
+        "--seed", type=int, default=0, help="episode k is reset with seed + k (default 0)"
+    )
+    p.add_argument(
+        "--pairs",
+        choices=PAIRS,
+        default="all",
+        help="egos: every vehicle (default) or the controlled one only",
+    )
+    p.add_argument("--duration", type=positive_float, help="seconds per episode (default: env's)")
+    p.add_argument("--vehicles", type=int, help="highway-env's vehicles_count (default: env's)")
+    p.add_argument("--config", metavar="FILE", help="TOML or YAML file of SimConfig fields")
+    p.add_argument(
+        "--render",
+        metavar="PATH",
+        help="write a replay of the FCW-on run (.gif, or .mp4 with imageio-ffmpeg) with the "
+        "fused gap, safety distance and warning level drawn on highway-env's frames",
+    )
+    p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
+    p.set_defaults(func=cmd_highway)
+    return p
+
+
+def cmd_highway(args: argparse.Namespace) -> int:
+    """``acc-fusion highway``: print the table (and write CSV/PNG/JSON with ``--out``)."""
+    from acc_fusion.cli.main import sim_config, write_study
+    from acc_fusion.core.outputs import output_dir
+
+    cfg = HighwayConfig(
+        env=args.env,
+        episodes=args.episodes,
+        seed=args.seed,
+        duration=args.duration,
+        pairs=args.pairs,
+        vehicles_count=args.vehicles,
+    )
+    render = check_replay_path(args.render) if args.render else None
+    out = output_dir(args.out) if args.out else None
+    sim = sim_config(args, runs=1)
+    study = highway_study(cfg, sim, progress=True, render=render)
+    table = study.table()
+    print(table.format())
+    if study.on.replay is not None:
+        print(f"wrote {study.on.replay}")
+    if out is not None:
+        write_study(
+            out,
+            f"highway_{cfg.env}_seed{cfg.seed}",
+            table,
+            study,
+            env=cfg.env,
+            episodes=study.off.episodes,
+            seed=cfg.seed,
+            pairs=cfg.pairs,
+            egos_per_episode=study.off.pairs,
+            crashes={"fcw_off": study.off.crashes, "fcw_on": study.on.crashes},
+            replay=str(study.on.replay) if study.on.replay else None,
+        )
+    return 0

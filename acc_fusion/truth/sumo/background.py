@@ -1,0 +1,635 @@
+"""SUMO in a background process, streaming frames ahead of the FCW pipeline (open loop).
+
+:class:`BackgroundSumoSource` offers the read side of
+:class:`~acc_fusion.truth.sumo.source.SumoSource`
+(``frame()``, ``advance()``, ``t``, ``n_steps``, ``done``, ``active``, ``reassigned``,
+``collided``, ``collision_speed``, ``inattentive``, ``vehicle_ids``, the counters and
+:meth:`~BackgroundSumoSource.ssm_min_ttc`) while the
+:class:`~acc_fusion.truth.sumo.source.SumoSource`
+itself runs in a child process.  The child steps SUMO, reads the frame and sends it, without
+waiting to be asked, so the SUMO steps and the libsumo reads run on one core while the
+pipeline processes earlier frames on the other.  The child never waits for the parent to
+read while its :class:`_FrameRing` has room (:data:`RING_BYTES`, about 1 600 frames of the
+motorway at its peak).  That matters because the two sides' costs move in opposite phases:
+SUMO's step grows with the traffic (0.15 ms per step while the motorway fills, 1 ms at its
+peak) while the pipeline's is nearly fixed, so the child runs hundreds of frames ahead early
+and the parent catches up later.
+Nothing waits for a request per step: on a virtual machine, waking a sleeping process costs
+a quarter of a millisecond or more, as much as a SUMO step, and a request-reply per frame
+paid it twice per step.
+
+Why this is exact, and only in open loop
+    The frames are those of a :class:`~acc_fusion.truth.sumo.source.SumoSource` with the same
+    config,
+    bit for bit (the child *is* one, and the parent makes each frame with the same
+    :class:`~acc_fusion.truth.sumo.source.FrameMaker` of the same values), because nothing the
+    pipeline
+    does reaches SUMO when no driver hears the warnings: hazards, inattentive drivers and
+    slots are drawn inside the source.  A closed loop sends each step's brake requests to
+    SUMO *before* the next step, which a source running ahead cannot honour, so
+    :meth:`BackgroundSumoSource.advance` refuses them and
+    :func:`acc_fusion.sim.closed_loop.simulate`
+    refuses a closed loop on a source whose ``accepts_brakes`` is false.  ``gui`` (sumo-gui,
+    coloured by warning) needs the pipeline's levels in SUMO too and is refused as well.
+
+Processes
+    The child is a fresh interpreter (``python -c``, not ``multiprocessing``: a user's script
+    without a ``__main__`` guard is not re-imported), connected by a socket pair; libsumo
+    holds one simulation per process, so any number of background sources can run in one
+    parent process, each with its own child.  The child sends what it read at each step
+    (:meth:`~acc_fusion.truth.sumo.source.SumoSource._fill`) and the parent makes the frame of it:
+    SUMO's
+    process, which sets the pace, does only what needs SUMO.  The arrays (the vehicles'
+    speeds and leaders, the slot flags cut after the last slot in use; :class:`_Snapshots`)
+    are written into a ring of memory shared by the two processes (:class:`_FrameRing`) and
+    copied out by the parent: no pickling and no copy through the kernel for the bulk of a
+    frame, which cost the child a tenth of a SUMO step on the motorway.  The rest (time,
+    slot ids that changed, the new vehicles' minGap and acceleration, the leaders without a
+    slot, counters, warnings) and the arrays' place in the ring cross the socket pickled;
+    the parent returns the ring's room as it reads.  The source's ``RuntimeWarning`` s (e.g. more
+    equipped vehicles than slots) are re-issued in the parent.  A SUMO failure in the
+    child reaches the parent as the same :class:`~acc_fusion.truth.sumo.source.SumoError` at the
+    frame
+    where it happened (the frames before it were delivered); a child that dies is a
+    :class:`~acc_fusion.truth.sumo.source.SumoError` naming its exit code.
+"""
+
+from __future__ import annotations
+
+import mmap
+import os
+import pickle
+import select
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import warnings
+from collections import deque
+from itertools import islice
+from multiprocessing.connection import Connection
+from operator import attrgetter
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.validation import check_array
+from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.sumo.source import FrameMaker, SumoConfig, SumoError, SumoSource
+
+#: Counters of :class:`~acc_fusion.truth.sumo.source.SumoSource` mirrored by the background source.
+COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisions")
+_counts = attrgetter(*COUNTERS)
+#: Bytes of the ring of shared memory the child writes frames into (at least 16 frames of
+#: every slot): about 1 600 frames of the motorway at its peak, more while it fills.  SUMO's
+#: step costs grow with the traffic while the pipeline's are fixed, so the child runs ahead
+#: while the network fills and the parent catches up later; a buffer of a few frames made
+#: each process wait on the other's slow steps instead.
+RING_BYTES = 32 << 20
+#: Bytes of messages the child may hold for the parent beyond the socket's buffer before it
+#: waits (the frames' arrays travel in the ring; this is the rest of them).
+OUTBOX_LIMIT = 16 << 20
+#: Frame messages the child writes to the socket at a time (see :class:`_Outbox`).
+OUTBOX_BATCH = 8
+#: Buffers per ``writev`` (POSIX guarantees at least 16).
+_IOV_MAX = 16
+#: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
+CLOSE_TIMEOUT = 30.0
+
+
+#: The slot flags of a frame message, in order (empty: False).
+_FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
+
+
+def _frame_bytes(k: int, m: int) -> int:
+    """Bytes of a frame's arrays: the collision speeds and the four flags of the slots cut
+    after ``k``, and the speeds, leader distances and leader codes of its ``m`` vehicles,
+    rounded up to 8 so every frame starts aligned."""
+    return -(-((8 + len(_FLAG_ROWS)) * k + 24 * m) // 8) * 8
+
+
+def _ring_bytes(n_pairs: int) -> int:
+    """Bytes of the ring of a source of ``n_pairs`` slots (see :data:`RING_BYTES`)."""
+    return max(RING_BYTES, 16 * _frame_bytes(n_pairs, n_pairs))
+
+
+class _FrameRing:
+    """Frames' arrays in memory shared by the child (writing) and the parent (reading).
+
+    A frame takes :func:`_frame_bytes` bytes at a *position* that only grows; it lies at
+    ``position % size`` in the memory, and a frame that would cross the end starts at the
+    beginning instead.  The child may write up to ``size`` bytes past what the parent has
+    returned: the parent returns the room behind the frames it has copied (an ``("ack",
+    position)`` message, each time an eighth of the ring has been read), and the child
+    waits for it only when the ring is full.  The memory is a file descriptor passed to
+    the child (``memfd``, else an unlinked temporary file), mapped with its pages in place
+    so the processes' memory stays flat as the ring fills.
+    """
+
+    def __init__(self, fd: int, size: int) -> None:
+        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
+        self.size = size
+        self._memory = mmap.mmap(fd, size, flags=flags)
+        memory = np.frombuffer(self._memory, np.uint8)  # size: a multiple of 8
+        self._views = (memory.view(np.float64), memory.view(np.int64), memory.view(np.bool_))
+
+    @staticmethod
+    def create(size: int) -> int:
+        """A new shared file descriptor of ``size`` bytes (inheritable by ``pass_fds``)."""
+        if hasattr(os, "memfd_create"):
+            fd = os.memfd_create("acc_fusion_frames")
+        else:
+            fd, path = tempfile.mkstemp(prefix="acc_fusion_frames_")
+            os.unlink(path)
+        os.ftruncate(fd, size)
+        return fd
+
+    def place(self, position: int, nbytes: int) -> int:
+        """Where a frame of ``nbytes`` written after ``position`` starts."""
+        offset = position % self.size
+        return position if offset + nbytes <= self.size else position + self.size - offset
+
+    def write(self, position: int, frame: tuple[np.ndarray, ...], k: int, m: int) -> None:
+        """Write a frame's arrays (the arguments of :func:`_pack` after ``m``: its first ``k``
+        slots, its ``m`` vehicles) at ``position``."""
+        _pack(*self._views, position % self.size, k, m, *frame)
+
+    def read(self, position: int, k: int, m: int, n: int) -> tuple[np.ndarray, ...]:
+        """A copy of the frame of ``k`` slots and ``m`` vehicles written at ``position``: the
+        ``(n,)`` collision speeds (NaN beyond ``k``), the ``(m,)`` speeds, leader distances
+        and leader codes, and the ``(4, n)`` flags (False beyond ``k``)."""
+        return _unpack(*self._views, position % self.size, k, m, n)
+
+
+@njit(cache=True)
+def _pack(
+    floats, ints, flags, offset, k, m, collision_speed, speed, dists, codes, active, reassigned,
+    collided, inattentive,
+):  # pragma: no cover - compiled  # fmt: skip
+    """Write a frame at byte ``offset`` (a multiple of 8) of the ring, whose memory
+    ``floats``, ``ints`` and ``flags`` view as float64, int64 and bool, each row after the
+    other (:func:`_frame_bytes`): the first ``k`` slots' ``collision_speed``, the ``m``
+    vehicles' ``speed``, ``dists`` and ``codes``
+    (:meth:`acc_fusion.truth.sumo.source.SumoSource._fill`),
+    then the first ``k`` slots' flags ``active``, ``reassigned``, ``collided`` and
+    ``inattentive & active`` (:data:`_FLAG_ROWS`)."""
+    at = offset // 8
+    floats[at : at + k] = collision_speed[:k]
+    floats[at + k : at + k + m] = speed
+    floats[at + k + m : at + k + 2 * m] = dists
+    ints[at + k + 2 * m : at + k + 3 * m] = codes
+    at = 8 * (at + k + 3 * m)
+    flags[at : at + k] = active[:k]
+    flags[at + k : at + 2 * k] = reassigned[:k]
+    flags[at + 2 * k : at + 3 * k] = collided[:k]
+    flags[at + 3 * k : at + 4 * k] = inattentive[:k] & active[:k]
+
+
+@njit(cache=True)
+def _unpack(floats, ints, flags, offset, k, m, n):  # pragma: no cover - compiled
+    """The arrays of a frame that :func:`_pack` wrote at ``offset``, copied out of the ring:
+    the ``(n,)`` collision speeds (NaN beyond ``k``), the ``(m,)`` speeds, leader distances
+    and leader codes, and the ``(4, n)`` flags (False beyond ``k``)."""
+    collision_speed = np.full(n, np.nan)
+    slot_flags = np.zeros((4, n), dtype=np.bool_)
+    at = offset // 8
+    collision_speed[:k] = floats[at : at + k]
+    speed = floats[at + k : at + k + m].copy()
+    dists = floats[at + k + m : at + k + 2 * m].copy()
+    codes = ints[at + k + 2 * m : at + k + 3 * m].copy()
+    at = 8 * (at + k + 3 * m)
+    for row in range(4):
+        slot_flags[row, :k] = flags[at : at + k]
+        at += k
+    return collision_speed, speed, dists, codes, slot_flags
+
+
+class _RingWriter:
+    """The child's side of a :class:`_FrameRing`: where the next frame goes, waiting for the
+    parent to return room only when the ring is full (after sending it everything queued,
+    which it needs to catch up)."""
+
+    def __init__(self, ring: _FrameRing, conn: Connection, outbox: _Outbox) -> None:
+        self._ring, self._conn, self._outbox = ring, conn, outbox
+        self._head = self._returned = 0
+
+    def write(self, frame: tuple[np.ndarray, ...], k: int, m: int) -> int:
+        """Write a frame's arrays (:meth:`_FrameRing.write`: ``k`` slots, ``m`` vehicles);
+        returns its position."""
+        nbytes = _frame_bytes(k, m)
+        start = self._ring.place(self._head, nbytes)
+        while start + nbytes - self._returned > self._ring.size:
+            self._await_room()
+        self._ring.write(start, frame, k, m)
+        self._head = start + nbytes
+        return start
+
+    def _await_room(self) -> None:
+        fd = self._conn.fileno()
+        if not select.select([fd], [], [], 0)[0]:
+            self._outbox.flush()
+        os.set_blocking(fd, True)  # the outbox keeps it non-blocking
+        try:
+            message = self._conn.recv()
+        finally:
+            os.set_blocking(fd, False)
+        if not (isinstance(message, tuple) and message[0] == "ack"):
+            raise SumoError(f"the parent sent {message!r} while frames were streaming")
+        self._returned = max(self._returned, message[1])
+
+
+class _Snapshots:
+    """The frame messages of a source, step by step (the child's side of :meth:`_take`).
+
+    A message carries what the parent makes the frame of (with its own
+    :class:`~acc_fusion.truth.sumo.source.FrameMaker`): the values the source read
+    (:meth:`~acc_fusion.truth.sumo.source.SumoSource._fill`), the slots taken at the step and the
+    slot
+    flags.  The arrays go into the ring (:class:`_RingWriter`): the vehicles' speeds, leader
+    distances and leader codes, then the collision speeds and the four flags cut after the
+    last slot that holds a vehicle, a new vehicle or a collision flag (the slots beyond hold
+    the values of an empty slot, which the parent fills in); the message gives their
+    position.  The slot ids travel as the slots whose id changed, found among the slots that
+    got a new vehicle or lost theirs since the last message (the only ways a slot's id
+    changes).
+    """
+
+    def __init__(self, n_pairs: int, ring: _RingWriter) -> None:
+        self._known: list[str | None] = [None] * n_pairs  # the slot ids the parent has
+        self._was_active = np.zeros(n_pairs, dtype=bool)
+        self._ring = ring
+
+    def __call__(self, src: SumoSource, caught: list) -> tuple:
+        """The message of ``src``'s current step, with the warnings ``caught`` during it,
+        its arrays written into the ring from the source's own (no copies)."""
+        active = src._active  # replaced, never changed in place
+        reassigned, collided = src._reassigned, src._collided
+        k, candidates = _extent(active, reassigned, collided, self._was_active)
+        ids, known = src._slot_vid, self._known
+        changed = {}
+        for i in candidates.tolist():
+            if ids[i] != known[i]:
+                changed[i] = known[i] = ids[i]
+        self._was_active = active
+        _, speed, dists, codes, others, _ = src._raw
+        arrays = (src._collision_speed, speed, dists, codes, active, reassigned, collided)
+        position = self._ring.write((*arrays, src._inattentive), k, speed.size)
+        return (
+            "frame",
+            src.t,
+            k,
+            speed.size,
+            position,
+            changed,
+            src._news,
+            others,
+            src.done,
+            _counts(src),
+            [(w.category, str(w.message)) for w in caught],
+        )
+
+
+@njit(cache=True)
+def _extent(active, reassigned, collided, was_active):  # pragma: no cover - compiled
+    """One past the last slot that holds a vehicle, a new vehicle or a collision flag, and
+    the slots whose id may have changed since the last message (a new vehicle, or a vehicle
+    gone)."""
+    k, m = 0, 0
+    candidates = np.empty(active.size, dtype=np.intp)
+    for i in range(active.size):
+        if active[i] or reassigned[i] or collided[i]:
+            k = i + 1
+        if reassigned[i] or (was_active[i] and not active[i]):
+            candidates[m] = i
+            m += 1
+    return k, candidates[:m]
+
+
+def _failure(exc: BaseException) -> tuple:
+    """An error message for the parent: the exception's type if it is ours, else SumoError."""
+    kind = type(exc) if isinstance(exc, AccFusionError) else SumoError
+    return ("error", kind, str(exc) or type(exc).__name__)
+
+
+def _child(fd: int, ring_fd: int, ring_size: int) -> None:
+    """Entry point of the child process: serve the config it receives on socket ``fd``,
+    writing the frames' arrays into the ring of ``ring_size`` bytes shared as ``ring_fd``.
+    Ctrl-C is the parent's to handle: the child ends when the parent closes the socket."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    conn = Connection(fd)
+    ring = _FrameRing(ring_fd, ring_size)
+    os.close(ring_fd)  # the mapping stays
+    _serve(conn.recv(), conn, ring)
+
+
+class _Outbox:
+    """Messages to the parent, written to the socket without blocking SUMO's stepping.
+
+    Messages are written :data:`OUTBOX_BATCH` at a time (one ``writev``), or at once when
+    :meth:`put` is told ``now``: a parent waiting for frames is woken once per batch, not
+    per frame, and waking a process costs the waker as much as a SUMO step on a virtual
+    machine.  A message that does not fit in the socket's buffer waits here, in order, and
+    is written as the parent reads; only when more than ``limit`` bytes wait does
+    :meth:`put` block until the parent has caught up to ``limit``.  The bytes on the socket
+    are those of ``Connection.send`` (a 4-byte big-endian length, then the pickle), so the
+    parent reads them with ``Connection.recv``.  The socket is non-blocking while the outbox
+    is open.
+    """
+
+    def __init__(self, fd: int, limit: int) -> None:
+        self._fd, self._limit = fd, limit
+        self._queue: deque[memoryview] = deque()
+        self._queued = 0
+        os.set_blocking(fd, False)
+
+    def put(self, message: tuple, now: bool = False) -> None:
+        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        for part in (struct.pack("!i", len(data)), data):
+            self._queue.append(memoryview(part))
+            self._queued += len(part)
+        batch = len(self._queue) >= 2 * OUTBOX_BATCH  # two parts a message
+        if now or batch or self._queued > self._limit:
+            self._write(self._limit)
+
+    def flush(self) -> None:
+        """Write everything still waiting (blocking)."""
+        self._write(0)
+
+    def close(self) -> None:
+        """Write everything still waiting (blocking), and make the socket blocking again."""
+        self._write(0)
+        os.set_blocking(self._fd, True)
+
+    def _write(self, keep: int) -> None:
+        """Write what the socket takes; block while more than ``keep`` bytes wait."""
+        queue = self._queue
+        while queue:
+            try:
+                sent = os.writev(self._fd, list(islice(queue, _IOV_MAX)))
+            except BlockingIOError:
+                if self._queued <= keep:
+                    return
+                select.select([], [self._fd], [])
+                continue
+            self._queued -= sent
+            while sent >= len(queue[0]):
+                sent -= len(queue.popleft())
+                if not queue:
+                    return
+            queue[0] = queue[0][sent:]
+
+
+def _serve(config: SumoConfig, conn: Any, ring: _FrameRing) -> None:
+    """Run a :class:`SumoSource` to its end, sending every frame as soon as it is read
+    (its arrays through ``ring``, the rest through an :class:`_Outbox`); then answer
+    ``"ssm"`` requests until the parent closes the socket."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            src = SumoSource(config)
+        except Exception as exc:  # a bad config or SUMO not loading: the parent raises it
+            conn.send(_failure(exc))
+            return
+        try:
+            outbox = _Outbox(conn.fileno(), OUTBOX_LIMIT)
+            meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
+            outbox.put(("meta", meta))
+            snapshot = _Snapshots(src.n_pairs, _RingWriter(ring, conn, outbox))
+            outbox.put(snapshot(src, caught), now=True)  # the parent waits for it
+            while not src.done:
+                caught.clear()
+                try:
+                    src._step()
+                except Exception as exc:  # SUMO failed: the parent raises it at this frame
+                    outbox.put(_failure(exc))
+                    break
+                outbox.put(snapshot(src, caught))
+            outbox.close()
+            while True:
+                request = conn.recv()
+                if request == "ssm":
+                    conn.send(("ssm", src.ssm_min_ttc()))
+                elif request[0] != "ack":  # acks: the room returned after the last frames
+                    break
+        except (EOFError, OSError):  # the parent closed the socket (or went away)
+            pass
+        finally:
+            src.close()
+
+
+class BackgroundSumoSource(SlotSource):
+    """A :class:`~acc_fusion.truth.sumo.source.SumoSource` run in a child process that streams its
+    frames
+    ahead of the caller (see the module docstring).  Open loop only: ``advance`` takes no
+    brake requests.
+
+    Example:
+        >>> from acc_fusion.sim.closed_loop import SimConfig, simulate
+        >>> from acc_fusion.studies.traffic import bundled_nets
+        >>> with BackgroundSumoSource(SumoConfig(str(bundled_nets()["ring"]), end=5.0)) as src:
+        ...     result = simulate(SimConfig(runs=1, dt=src.dt), source=src)
+        >>> result.steps
+        50
+
+    Args:
+        config: the source's :class:`~acc_fusion.truth.sumo.source.SumoConfig` (``gui`` must be
+        false).
+
+    Raises:
+        ConfigError: ``gui`` is set, or the config is invalid (as ``SumoSource`` raises it).
+        SumoError: SUMO could not load the configuration.
+    """
+
+    #: Closed loops need a source that applies brake requests before its next step.
+    accepts_brakes = False
+
+    def __init__(self, config: SumoConfig) -> None:
+        if not isinstance(config, SumoConfig):
+            raise ConfigError(f"config must be a SumoConfig, got {type(config).__name__}")
+        if config.gui:
+            raise ConfigError(
+                "gui needs the warning levels in SUMO at every step; run it with SumoSource"
+            )
+        self.config = config
+        self._closed = True
+        mine, theirs = socket.socketpair()
+        fd, size = theirs.fileno(), _ring_bytes(int(config.capacity))
+        ring_fd = _FrameRing.create(size)
+        # The parent's imports (also from a checkout), and not the working directory that
+        # ``python -c`` puts first: a package there would shadow the parent's.
+        code = (
+            "import sys; sys.path[:] = [p for p in sys.path if p]; "
+            f"from acc_fusion.truth.sumo.background import _child; _child({fd}, {ring_fd}, {size})"
+        )
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+        try:
+            self._ring = _FrameRing(ring_fd, size)
+            self._proc = subprocess.Popen(
+                [sys.executable, "-c", code], pass_fds=(fd, ring_fd), env=env
+            )
+        finally:
+            theirs.close()
+            os.close(ring_fd)
+        self._returned = 0  # the ring's room given back to the child, up to this position
+        self._conn = Connection(mine.detach())
+        self._closed = False
+        try:
+            self._conn.send(config)
+            meta = self._receive("meta")[1]
+            self.dt, self.begin, self.end_time = meta["dt"], meta["begin"], meta["end_time"]
+            self.n_pairs, self._n_steps = meta["n_pairs"], meta["n_steps"]
+            self._vehicle_ids: list[str | None] = [None] * self.n_pairs
+            self._maker = FrameMaker(self.n_pairs, self.dt, float(config.lookahead))
+            self._k = 0
+            self._take(self._receive("frame"))
+        except BaseException:
+            self.close()
+            raise
+
+    # ---------------------------------------------------------------- the child's answers
+    def _receive(self, kind: str) -> tuple:
+        try:
+            message = self._conn.recv()
+        except (EOFError, OSError):
+            try:
+                code = self._proc.wait(timeout=CLOSE_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                code = None
+            self.close()
+            raise SumoError(
+                f"the SUMO process running {self.config.sumocfg!r} ended unexpectedly "
+                f"(exit code {code})"
+            ) from None
+        if message[0] == "error":
+            _, error_type, text = message
+            self.close()
+            raise error_type(text)
+        if message[0] != kind:  # a protocol slip would silently shift every frame
+            self.close()
+            raise SumoError(f"the SUMO process answered {message[0]!r} to a {kind!r} request")
+        return message
+
+    def _take(self, message: tuple) -> None:
+        """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring, fill
+        in the empty slots beyond them and make the frame."""
+        (_, t, k, m, position, ids, news, others, done, counts, caught) = message
+        self._collision_speed, speed, dists, codes, flags = self._ring.read(
+            position, k, m, self.n_pairs
+        )
+        self._give_back(position + _frame_bytes(k, m))
+        self._active, self._reassigned, self._collided, self._inattentive = flags
+        slots = np.flatnonzero(self._active)
+        self._frame = self._maker.make(t, slots, speed, dists, codes, news, others)
+        self._done = done
+        for slot, vehicle in ids.items():
+            self._vehicle_ids[slot] = vehicle
+        for name, value in zip(COUNTERS, counts, strict=True):
+            setattr(self, name, value)
+        for category, text in caught:
+            warnings.warn(text, category, stacklevel=3)
+
+    def _give_back(self, position: int) -> None:
+        """Return the ring's room up to ``position`` (the frames before it are copied), an
+        eighth of the ring at a time.  A child that is gone is reported by the next
+        receive."""
+        if position - self._returned >= self._ring.size // 8:
+            self._returned = position
+            try:
+                self._conn.send(("ack", position))
+            except OSError:
+                pass
+
+    # ---------------------------------------------------------------- the source interface
+    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+        """The next frame (usually already computed and waiting in the socket).
+
+        Raises:
+            ConfigError: a brake request (any value > 0): this source runs ahead of them.
+            SumoError: SUMO failed at this step, the run has ended, or the source is closed.
+        """
+        if ego_brake is not None:
+            brake = check_array("ego_brake", ego_brake, (self.n_pairs,), finite=False)
+            if np.any(brake > 0):
+                raise ConfigError(
+                    "a BackgroundSumoSource runs ahead of the pipeline and cannot apply brake "
+                    "requests; use SumoSource for a closed loop"
+                )
+        if self._closed:
+            raise SumoError("the SUMO simulation is closed; open a new source")
+        if self._done:
+            raise SumoError(f"the SUMO run has ended at t = {self.t:g} s")
+        self._take(self._receive("frame"))
+        self._k += 1
+        return self._frame
+
+    @property
+    def pid(self) -> int:
+        """Process id of the child running SUMO."""
+        return self._proc.pid
+
+    @property
+    def t(self) -> float:
+        """Current simulation time [s]."""
+        return self._frame.t
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps from the begin time to the end time."""
+        return self._n_steps
+
+    @property
+    def done(self) -> bool:
+        """The run has ended (as :attr:`SumoSource.done`), or the source is closed."""
+        return self._closed or self._done
+
+    @property
+    def closed(self) -> bool:
+        """Whether the child process has been closed (by :meth:`close` or a failure)."""
+        return self._closed
+
+    @property
+    def inattentive(self) -> np.ndarray:
+        """``(N,)`` slots whose vehicle has an inattentive driver."""
+        return self._inattentive.copy()
+
+    @property
+    def vehicle_ids(self) -> list[str | None]:
+        """SUMO id of each slot's vehicle (``None`` for an empty slot)."""
+        return list(self._vehicle_ids)
+
+    def slot_of(self, vehicle_id: str) -> int | None:
+        """The slot of an equipped vehicle, or ``None``."""
+        try:
+            return self._vehicle_ids.index(vehicle_id)
+        except ValueError:
+            return None
+
+    def ssm_min_ttc(self) -> dict[str, float]:
+        """As :meth:`SumoSource.ssm_min_ttc`, once the run is done (the child is ahead of the
+        parent before that).
+
+        Raises:
+            SumoError: the run is not done yet, or the source is closed.
+        """
+        if self._closed:
+            raise SumoError("the SUMO process is closed; ask for ssm_min_ttc() before close()")
+        if not self._done:
+            raise SumoError("ssm_min_ttc() of a background source is available once it is done")
+        self._conn.send("ssm")
+        return self._receive("ssm")[1]
+
+    def close(self) -> None:
+        """Stop the child process (idempotent); the last frame and counters stay readable."""
+        if self._closed:
+            return
+        self._closed = True
+        self._conn.close()  # the child, reading or sending, sees the socket closed and exits
+        try:
+            self._proc.wait(timeout=CLOSE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()

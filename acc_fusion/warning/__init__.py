@@ -1,0 +1,2 @@
+"""Stage 5, warning: safety-distance models and the warning logic (levels, hysteresis).
+"""

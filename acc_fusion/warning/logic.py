@@ -1,0 +1,265 @@
+r"""Warning logic: compare the gap with a safety distance, with levels, hysteresis and hold.
+
+Two warning levels follow the two phases of ISO 15623:2013 (forward vehicle collision warning
+systems): *caution* (the preliminary collision warning) and *imminent* (the collision warning,
+"the need for urgent action").  For each pair and level :math:`L` the safety model
+(:mod:`acc_fusion.warning.safety`) gives a distance :math:`d_L`, and the logic compares it with the
+gap, or with its lower quantile :math:`\tilde g = g - z\,\sigma_g` when the gap is an estimate
+with standard deviation :math:`\sigma_g` (uncertainty-aware warning: a larger σ warns earlier).
+
+Each level is a latch with its own state; at every step, for every pair:
+
+======================  ===================================================================
+rule                    condition
+======================  ===================================================================
+condition               :math:`c_L = \tilde g < d_L`
+raise                   :math:`c_L` now, and (with ``confirm = (k, n)``) :math:`c_L` in at
+                        least k of the last n steps, this one included
+hold                    a raised level stays on for at least ``min_on_time`` seconds
+lower                   after the hold, only once :math:`\tilde g > d_L(1 + h)`
+                        (``hysteresis`` h); between :math:`d_L` and :math:`d_L(1+h)` the
+                        level keeps its state
+imminent ⇒ caution      the caution latch is on whenever the imminent one is
+no track / no leader    ``valid`` False: level none, and the pair's state is cleared
+output                  2 (imminent) if its latch is on, else 1 (caution) if on, else 0
+======================  ===================================================================
+
+The state is a handful of ``(2, N)`` arrays (latches, steps since raised, confirmation
+counts) and a ``(2, N, n)`` ring of the last n conditions, so memory does not grow with the
+run and a step costs a few vector operations whatever N.  The same class run on ground truth
+(``gap_std=None``, ``valid = frame.has_leader``) is the oracle the metrics compare with.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from acc_fusion.core.config import from_mapping
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.slots import PairState, pair_mask
+from acc_fusion.core.validation import check_array, check_choice, check_range
+from acc_fusion.warning.safety import SAFETY_MODELS, distances_unchecked, model_constants
+
+NONE, CAUTION, IMMINENT = 0, 1, 2
+LEVEL_NAMES = ("none", "caution", "imminent")
+
+
+@dataclass(frozen=True)
+class WarningConfig:
+    """How the warning is raised and lowered (one typed place for every warning default).
+
+    Attributes:
+        model: safety-distance model, a name of :data:`acc_fusion.warning.safety.SAFETY_MODELS`
+            (default ``"stopping_distance"``).
+        params: that model's parameter dataclass (e.g.
+            :class:`~acc_fusion.warning.safety.MazdaParams`), a mapping of its fields (from TOML or
+            YAML), or ``None`` for its defaults.
+        hysteresis: a level is lowered only once the gap exceeds :math:`d(1 + h)` [fraction]
+            (default 0.1).
+        min_on_time: a raised level is held at least this long [s] (default 0.5).
+        confirm: ``(k, n)``: raise only when the condition held in k of the last n steps,
+            this one included (``None``, the default: raise at once).
+        z: compare the lower quantile :math:`g - z\\sigma_g` of the estimated gap instead of
+            the gap (default 0: the gap itself).
+    """
+
+    model: str = "stopping_distance"
+    params: object | None = None
+    hysteresis: float = 0.1
+    min_on_time: float = 0.5
+    confirm: tuple[int, int] | None = None
+    z: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_choice("warning.model", self.model, SAFETY_MODELS)
+        _, cls = SAFETY_MODELS[self.model]
+        if isinstance(self.params, Mapping):
+            object.__setattr__(self, "params", from_mapping(cls, self.params, "warning.params."))
+        elif self.params is not None and not isinstance(self.params, cls):
+            raise ConfigError(
+                f"warning.params must be a {cls.__name__} for model {self.model!r}, "
+                f"got {type(self.params).__name__}"
+            )
+        check_range("warning.hysteresis", self.hysteresis, 0.0, 10.0)
+        check_range("warning.min_on_time", self.min_on_time, 0.0, 60.0)
+        check_range("warning.z", self.z, 0.0, 10.0)
+        if self.confirm is not None:
+            ok = isinstance(self.confirm, (tuple, list)) and len(self.confirm) == 2
+            k, n = self.confirm if ok else (None, None)
+            whole = all(isinstance(x, int) and not isinstance(x, bool) for x in (k, n))
+            if not (whole and 1 <= k <= n <= 1000):
+                raise ConfigError(
+                    "warning.confirm must be None or two whole numbers (k, n) with "
+                    f"1 <= k <= n <= 1000, got {self.confirm!r}"
+                )
+            object.__setattr__(self, "confirm", (k, n))
+
+
+def _per_pair(value: object, n: int) -> np.ndarray:
+    """A scalar or ``(N,)`` input as a float array, ``(N,)`` for a scalar (not checked)."""
+    arr = np.asarray(value, dtype=float)
+    return np.full(n, arr) if arr.ndim == 0 else arr
+
+
+class WarningLogic(PairState):
+    """Batched warning state machine over N pairs (rules in the module docstring).
+
+    Args:
+        config: the warning rules.
+        n_pairs: number of follower→leader pairs N.
+        dt: step of the calls to :meth:`step` [s].
+    """
+
+    _PAIR_AXES = dict.fromkeys(("_on", "_steps_on", "_history", "_count"), 1)
+
+    def __init__(self, config: WarningConfig, n_pairs: int, dt: float) -> None:
+        if not isinstance(n_pairs, (int, np.integer)) or n_pairs < 1:
+            raise ConfigError(f"n_pairs must be a whole number >= 1, got {n_pairs!r}")
+        self.config = config
+        self.n_pairs = int(n_pairs)
+        self.dt = check_range("warning.dt", dt, 0.0, 10.0, lo_open=True)
+        self._model, self._constants = model_constants(config.model, config.params)
+        self._k, self._n = config.confirm or (1, 1)
+        # Steps a raised level is held: on for at least ceil(min_on_time / dt) steps.
+        self._hold = math.ceil(config.min_on_time / self.dt - 1e-9)
+        shape = (2, self.n_pairs)
+        self._on = np.zeros(shape, dtype=bool)
+        self._steps_on = np.zeros(shape, dtype=np.int64)
+        self._history = np.zeros((*shape, self._n), dtype=bool)
+        self._count = np.zeros(shape, dtype=np.int64)
+        self._slot = 0
+
+    def reset(self, pairs: np.ndarray | None = None) -> None:
+        """Clear the state of the pairs in ``pairs`` (boolean mask or indices; all if None)."""
+        _clear(pair_mask(pairs, self.n_pairs), self._on, self._steps_on, self._history, self._count)
+
+    def _resized(self, m: int) -> None:
+        self.n_pairs = m
+
+    @property
+    def level(self) -> np.ndarray:
+        """Current warning level of every pair, ``(N,)`` int8 (:data:`NONE` … :data:`IMMINENT`)."""
+        caution, imminent = self._on
+        return np.where(imminent, IMMINENT, np.where(caution, CAUTION, NONE)).astype(np.int8)
+
+    def step(self, gap, v_ego, v_rel, a_lead=0.0, gap_std=None, valid=None) -> np.ndarray:
+        """Advance one step of ``dt`` and return the warning levels ``(N,)`` int8.
+
+        Args:
+            gap: gap [m], ``(N,)`` (may be NaN where not ``valid``).
+            v_ego: ego speed [m/s], scalar or ``(N,)``; clipped at 0 (an estimated speed may
+                dip below zero at standstill).
+            v_rel: range-rate [m/s], negative when closing, scalar or ``(N,)``.
+            a_lead: lead acceleration [m/s²], scalar or ``(N,)`` (used by the models that
+                need it).
+            gap_std: standard deviation of the gap [m], ``(N,)``, or ``None`` for an exact gap.
+            valid: ``(N,)`` pairs with a track (or, on truth, a leader); ``None`` = all.
+        """
+        n = self.n_pairs
+        if valid is None:
+            ok = np.ones(n, dtype=bool)
+        else:
+            ok = np.asarray(valid)
+            if ok.shape != (n,) or ok.dtype != bool:
+                raise InputError(
+                    f"valid must be a boolean array of shape ({n},), got {ok.dtype} {ok.shape}"
+                )
+        cfg = self.config
+        g = np.asarray(gap, dtype=float)
+        sigma = np.zeros(n) if gap_std is None else _per_pair(gap_std, n)
+        v, rel, acc = _per_pair(v_ego, n), _per_pair(v_rel, n), _per_pair(a_lead, n)
+        if not (
+            g.shape == sigma.shape == v.shape == rel.shape == acc.shape == (n,)
+            and _usable(g, sigma, v, rel, acc, ok)
+        ):  # the checks raise the error of the first bad input
+            check_array("gap", g, (n,), where=ok)
+            check_array("gap_std", sigma, (n,), nonnegative=True, where=ok)
+            check_array("v_ego", v, (n,), where=ok)
+            check_array("v_rel", rel, (n,), where=ok)
+            check_array("a_lead", acc, (n,), where=ok)
+        d_caution, d_imminent = distances_unchecked(self._model, self._constants, v, rel, acc)
+
+        level = np.empty(n, dtype=np.int8)
+        _latch(
+            g, sigma, cfg.z, d_caution, d_imminent, ok, self._on, self._steps_on, self._history,
+            self._count, self._slot, self._k, self._hold, cfg.hysteresis, level,
+        )  # fmt: skip
+        self._slot = (self._slot + 1) % self._n
+        return level
+
+
+@njit(cache=True)
+def _usable(gap, gap_std, v_ego, v_rel, a_lead, ok):  # pragma: no cover - compiled
+    """True if the inputs ``(N,)`` of :meth:`WarningLogic.step` are finite, and ``gap_std``
+    is >= 0, at the pairs in ``ok``."""
+    for i in range(ok.size):
+        if ok[i] and not (
+            np.isfinite(gap[i])
+            and np.isfinite(gap_std[i])
+            and gap_std[i] >= 0.0
+            and np.isfinite(v_ego[i])
+            and np.isfinite(v_rel[i])
+            and np.isfinite(a_lead[i])
+        ):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _clear(pairs, on, steps_on, history, count):  # pragma: no cover - compiled
+    """:func:`_clear_one` of the pairs in ``pairs (N,)``."""
+    for i in range(pairs.size):
+        if pairs[i]:
+            _clear_one(i, on, steps_on, history, count)
+
+
+@njit(cache=True, inline="always")
+def _clear_one(i, on, steps_on, history, count):  # pragma: no cover - compiled
+    """Clear pair ``i``'s latches, in place: off, no steps on, no true condition in the
+    history ring."""
+    for lv in range(2):
+        on[lv, i] = False
+        steps_on[lv, i] = 0
+        if count[lv, i]:  # the ring holds count[lv, i] true conditions
+            count[lv, i] = 0
+            history[lv, i, :] = False
+
+
+@njit(cache=True)
+def _latch(
+    gap, gap_std, z, d_caution, d_imminent, ok, on, steps_on, history, count, slot, k, hold,
+    hysteresis, level,
+):  # pragma: no cover - compiled  # fmt: skip
+    """One step of the latches of every pair, in place (the rules of the module docstring).
+
+    ``gap - z * gap_std (N,)`` is the compared gap, ``d_caution``, ``d_imminent (N,)`` the
+    distances, ``ok (N,)`` the pairs with a track; ``history[:, :, slot]`` receives this
+    step's conditions; ``level (N,)`` receives the output level.
+    """
+    now = np.zeros(2, dtype=np.bool_)
+    d = np.empty(2)
+    for i in range(ok.size):
+        if not ok[i]:  # no track: level none, state cleared
+            _clear_one(i, on, steps_on, history, count)
+            level[i] = NONE
+            continue
+        lower = gap[i] - z * gap_std[i]
+        d[0], d[1] = d_caution[i], d_imminent[i]
+        for lv in range(2):
+            cond = lower < d[lv]
+            count[lv, i] += np.int64(cond) - np.int64(history[lv, i, slot])
+            history[lv, i, slot] = cond
+            steps_on[lv, i] += np.int64(on[lv, i])
+            release = steps_on[lv, i] >= hold and lower > d[lv] * (1.0 + hysteresis)
+            now[lv] = (on[lv, i] and not release) or (cond and count[lv, i] >= k)
+        now[0] = now[0] or now[1]  # imminent => caution
+        for lv in range(2):
+            if now[lv] and not on[lv, i]:
+                steps_on[lv, i] = 0
+            on[lv, i] = now[lv]
+        level[i] = IMMINENT if now[1] else (CAUTION if now[0] else NONE)
