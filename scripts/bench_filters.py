@@ -28,15 +28,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from acc_fusion.core.table import Table
 from acc_fusion.fusion.estimators import FusionConfig, make_estimator
 from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
-from acc_fusion.studies.estimation import (
-    FOLLOWING_FILTER,
-    SENSOR_NAMES,
-    Table,
-    following_source,
-    make_sensors,
-)
+from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
+from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source
 
 #: Untimed steps before timing: step 0 initialises the tracks (and compiles/loads the numba
 #: kernels), steps 1-3 cover the radar-only and radar + infrared steps once more.  Even, so

@@ -23,7 +23,7 @@ import argparse
 import tempfile
 import time
 
-from acc_fusion.cli.main import positive_int
+from acc_fusion.cli.common import positive_int
 from acc_fusion.sweep.run import SweepConfig, run_sweep
 
 

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from acc_fusion.cli.main import study_parser
+from acc_fusion.cli.common import study_parser
 from acc_fusion.core.outputs import save_figure_atomic
-from acc_fusion.studies.estimation import Table, fault_tolerance
+from acc_fusion.core.table import Table
+from acc_fusion.studies.estimation import fault_tolerance
 
 #: Ratio to the healthy RMSE marked on the plot (a fault-tolerant method stays below it).
 TOLERATED_RATIO = 1.5

@@ -17,9 +17,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acc_fusion.cli.main import study_parser
+from acc_fusion.cli.common import study_parser
 from acc_fusion.core.outputs import save_figure_atomic
-from acc_fusion.studies.estimation import SENSOR_NAMES, kong2011
+from acc_fusion.sensors.suite import SENSOR_NAMES
+from acc_fusion.studies.estimation import kong2011
 
 ESTIMATORS = ("radar KF", "infrared KF", "federated")
 

@@ -12,8 +12,9 @@ cost per pair-step of each, measured in the same run.
 
 from __future__ import annotations
 
-from acc_fusion.cli.main import study_parser
-from acc_fusion.studies.estimation import SENSOR_NAMES, steady_vs_full
+from acc_fusion.cli.common import study_parser
+from acc_fusion.sensors.suite import SENSOR_NAMES
+from acc_fusion.studies.estimation import steady_vs_full
 
 
 def main(argv: list[str] | None = None) -> None:

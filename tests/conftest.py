@@ -7,8 +7,8 @@ import pytest
 
 from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
 from acc_fusion.sensors.sensor import infrared_spec, radar_spec
+from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.estimation import run_estimation
-from acc_fusion.studies.estimation import SENSOR_NAMES, make_sensors
 from acc_fusion.truth.frame import LinearGaussianSource
 
 #: Filter model matched to :func:`linear_gaussian_source`.

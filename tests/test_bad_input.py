@@ -11,7 +11,7 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
 from acc_fusion.fusion.fdi import FDIConfig
 from acc_fusion.sensors.sensor import Measurement, radar_spec
-from acc_fusion.studies.estimation import SENSOR_NAMES
+from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.truth.frame import TruthFrame
 
 N = 4

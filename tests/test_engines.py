@@ -8,7 +8,7 @@ from conftest import LG_FILTER, linear_gaussian_source, linear_sensors
 
 from acc_fusion.fusion.estimators import FusionConfig, make_estimator
 from acc_fusion.sensors.faults import Fault
-from acc_fusion.studies.estimation import SENSOR_NAMES
+from acc_fusion.sensors.suite import SENSOR_NAMES
 
 N_PAIRS = 100
 STEPS = 160
@@ -73,8 +73,8 @@ def test_batched_equals_filterpy(name):
 
 def test_batched_banks_have_the_models_state_dimension():
     from acc_fusion.core.errors import ConfigError
+    from acc_fusion.core.motion import STATE_DIM
     from acc_fusion.filters.engines import Engine
-    from acc_fusion.filters.models import STATE_DIM
 
     assert Engine("batched").bank(2, 5, STATE_DIM).x.shape == (2, 5, STATE_DIM)
     with pytest.raises(ConfigError, match="dimension 3, got 2"):

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.sim.closed_loop import SimConfig, compare, compare_config, conformance, simulate
+from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.studies.compare import compare, compare_config, conformance
 
 
 @pytest.fixture(scope="module")

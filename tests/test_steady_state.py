@@ -7,8 +7,8 @@ import pytest
 from filterpy.kalman import KalmanFilter
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.motion import MEASUREMENT_MATRIX, ca_process_noise, ca_transition
 from acc_fusion.filters.ego import EgoFilterConfig
-from acc_fusion.filters.models import MEASUREMENT_MATRIX, ca_process_noise, ca_transition
 from acc_fusion.filters.steady_state import (
     TiltExampleConfig,
     TiltExampleRun,

@@ -7,14 +7,8 @@ import pytest
 
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.warning.logic import (
-    CAUTION,
-    IMMINENT,
-    LEVEL_NAMES,
-    NONE,
-    WarningConfig,
-    WarningLogic,
-)
+from acc_fusion.core.levels import CAUTION, IMMINENT, LEVEL_NAMES, NONE
+from acc_fusion.warning.logic import WarningConfig, WarningLogic
 from acc_fusion.warning.safety import MazdaParams, TTCParams
 
 # TTC model closing at 10 m/s: d_caution = 2.0 s * 10 = 20 m, d_imminent = 1.0 s * 10 = 10 m.

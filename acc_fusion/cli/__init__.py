@@ -1,2 +1,1 @@
-"""The ``acc-fusion`` command line: one module per command.
-"""
+"""The ``acc-fusion`` command line: one module per command."""

@@ -14,14 +14,14 @@ import numpy as np
 from gymnasium import spaces
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.validation import check_choice, check_range
+from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import Perception, SimConfig
-from acc_fusion.studies.estimation import SENSOR_NAMES
 from acc_fusion.truth.driver import Driver
 from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.scripted import SCENARIOS, make_scenario
 from acc_fusion.truth.sumo.source import SumoError
-from acc_fusion.warning.logic import CAUTION, IMMINENT, NONE
 from acc_fusion.warning.safety import safety_distances
 
 #: Names of the observation's entries, in order (see the environment's docstring).

@@ -5,7 +5,7 @@ r"""Evaluation harness: run a warning policy in the collision-warning environmen
 streaming :class:`acc_fusion.metrics.events.FCWMetrics` (false alarms per hour and per 100 km with
 exact Poisson intervals, miss rate with Wilson intervals, lead time, TTC at warning), counting
 collisions and reward on the way.  :func:`compare_policies` does it for several policies and
-returns a :class:`~acc_fusion.studies.estimation.Table`; :func:`load_policy` imports a user's
+returns a :class:`~acc_fusion.core.table.Table`; :func:`load_policy` imports a user's
 policy from
 a ``MODULE:CALLABLE`` spec; :func:`cmd_evaluate` is the ``acc-fusion evaluate`` command.
 
@@ -60,8 +60,8 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError, InputError
 
 if TYPE_CHECKING:
+    from acc_fusion.core.table import Table
     from acc_fusion.metrics.events import FCWSummary
-    from acc_fusion.studies.estimation import Table
 
 #: Stable-Baselines3 algorithms with a discrete action space, for ``[ALGO:]model.zip`` specs.
 SB3_ALGORITHMS = ("PPO", "A2C", "DQN")
@@ -383,7 +383,7 @@ COLUMNS = (
 def comparison_table(evaluations: Sequence[Evaluation]) -> Table:
     """One row per evaluation: false alarms per hour and miss rate with 95 % intervals,
     median lead time, collisions (episodes), mean reward per episode."""
-    from acc_fusion.studies.estimation import Table
+    from acc_fusion.core.table import Table
 
     if not evaluations:
         raise ConfigError("comparison_table needs at least one evaluation")
@@ -606,7 +606,7 @@ def load_policy(spec: str) -> object:
 
 def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``evaluate`` command to the ``acc-fusion`` sub-parsers (``cmd_evaluate``)."""
-    from acc_fusion.cli.main import positive_float, positive_int
+    from acc_fusion.cli.common import positive_float, positive_int
 
     p = subparsers.add_parser(
         "evaluate",

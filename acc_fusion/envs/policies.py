@@ -3,8 +3,8 @@ r"""Baseline warning policies for the collision-warning environment.
 A *policy* maps what the fusion center knows (an observation of
 :class:`acc_fusion.envs.collision_warning.CollisionWarningEnv`, the entries named by
 :data:`~acc_fusion.envs.collision_warning.OBS_FIELDS`) to a warning level: 0 none, 1 caution,
-2 imminent (:data:`~acc_fusion.warning.logic.NONE`, :data:`~acc_fusion.warning.logic.CAUTION`,
-:data:`~acc_fusion.warning.logic.IMMINENT`).  Every baseline here is a small class with
+2 imminent (:data:`~acc_fusion.core.levels.NONE`, :data:`~acc_fusion.core.levels.CAUTION`,
+:data:`~acc_fusion.core.levels.IMMINENT`).  Every baseline here is a small class with
 
 * ``policy(obs) -> int`` for one observation ``(F,)``, and an ``(B,)`` int8 array for a batch
   ``(B, F)`` (e.g. the observations of a vector environment);
@@ -51,9 +51,10 @@ from collections.abc import Callable
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.envs.collision_warning import OBS_FIELDS
-from acc_fusion.warning.logic import CAUTION, IMMINENT, NONE, WarningConfig, WarningLogic
+from acc_fusion.warning.logic import WarningConfig, WarningLogic
 from acc_fusion.warning.safety import SAFETY_MODELS, safety_distances, time_to_collision
 
 _INDEX = {name: i for i, name in enumerate(OBS_FIELDS)}

@@ -23,10 +23,10 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.motion import STATE_DIM
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.validation import check_choice
 from acc_fusion.filters import kalman
-from acc_fusion.filters.models import STATE_DIM
 
 ENGINES = ("batched", "filterpy")
 
@@ -88,7 +88,7 @@ class FilterBank(PairState, ABC):
 
 class BatchedBank(FilterBank):
     """All filters in two contiguous arrays, updated by the numba kernels (whose state
-    dimension is :data:`~acc_fusion.filters.models.STATE_DIM`, a compile-time constant)."""
+    dimension is :data:`~acc_fusion.core.motion.STATE_DIM`, a compile-time constant)."""
 
     _PAIR_AXES = {"_x": 1, "_p": 1}
 

@@ -2,7 +2,7 @@ r"""Batched Kalman-filter kernels: the same equations as filterpy, over many pai
 
 Every kernel works in place on arrays whose first axis is the pair (or filter) index:
 states ``x`` of shape ``(N, n)``, covariances ``P`` of shape ``(N, n, n)`` with
-``n = STATE_DIM`` (:mod:`acc_fusion.filters.models`).  They are compiled with numba, one tight loop
+``n = STATE_DIM`` (:mod:`acc_fusion.core.motion`).  They are compiled with numba, one tight loop
 per pair with no temporary allocation, because numpy's stacked operations on 3×3 matrices
 spend their time in per-matrix overhead (about 30× slower here).  The state dimension is a
 compile-time constant, so the compiler unrolls the loops over it: twice as fast as reading
@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from acc_fusion.filters.models import MEAS_DIM, STATE_DIM
+from acc_fusion.core.motion import MEAS_DIM, STATE_DIM
 
 
 @njit(cache=True)
@@ -203,7 +203,7 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
 
     Shapes: ``x (N, n)``, ``p (N, n, n)``, ``z (N, m)``, ``r (N, m, m)``, ``h (m, n)``,
     ``rows (N, m)`` bool (which measurement rows pair ``k`` has), ``nis (N,)`` output.
-    A pair with all the :data:`~acc_fusion.filters.models.MEAS_DIM` rows of a sensor (the usual
+    A pair with all the :data:`~acc_fusion.core.motion.MEAS_DIM` rows of a sensor (the usual
     case) is updated with the row count known when compiling, which unrolls the loops over
     it (twice as fast); other pairs with their active rows gathered first.
     """
@@ -290,7 +290,7 @@ def update_one(x, p, h, z, r, m, pht, kg, s_mat, si, work, y):  # pragma: no cov
 @njit(cache=True)
 def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     r"""NIS :math:`y^\top (H P H^\top + R)^{-1} y` of each pair's active rows, without
-    updating (all :data:`~acc_fusion.filters.models.MEAS_DIM` rows: unrolled, as :func:`update`)."""
+    updating (all :data:`~acc_fusion.core.motion.MEAS_DIM` rows: unrolled, as :func:`update`)."""
     n_pairs, n = x.shape[0], STATE_DIM
     m_all = h.shape[0]
     full = m_all == MEAS_DIM

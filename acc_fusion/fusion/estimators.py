@@ -57,6 +57,14 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.motion import (
+    MEAS_DIM,
+    MEASUREMENT_MATRIX,
+    STATE_DIM,
+    ca_process_noise,
+    ca_transition,
+    ego_input,
+)
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.filters.engines import ENGINES, Engine
@@ -67,14 +75,6 @@ from acc_fusion.filters.kalman import (
     nis_one,
     predict_one,
     update_one,
-)
-from acc_fusion.filters.models import (
-    MEAS_DIM,
-    MEASUREMENT_MATRIX,
-    STATE_DIM,
-    ca_process_noise,
-    ca_transition,
-    ego_input,
 )
 from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare, reset_one, window_one
 
@@ -95,7 +95,7 @@ class FilterConfig:
         dt: step of the estimation loop [s] (default 0.05: the radar's 20 Hz).
         jerk_std: relative-jerk standard deviation :math:`\\sigma_j` of the constant-
             acceleration model [m/s³] (default 2.0: ordinary driving, braking onsets of a few
-            m/s³; see :mod:`acc_fusion.filters.models`).
+            m/s³; see :mod:`acc_fusion.core.motion`).
         init_accel_std: standard deviation of the relative acceleration at initialisation
             [m/s²] (default 3.0: ±1 g covers emergency braking at 3 σ).
         max_coast: seconds without a usable measurement after which a track is dropped
@@ -283,7 +283,7 @@ class Estimator(PairState, ABC):
         """Advance every pair by one step with this step's measurements (one per sensor).
 
         ``ego_accel (N,)`` is the ego's measured acceleration over the coming step [m/s²]:
-        the known input of the motion model (:func:`acc_fusion.filters.models.ego_input`).
+        the known input of the motion model (:func:`acc_fusion.core.motion.ego_input`).
         """
         z, r, valid, target_id = self._check(measurements, target_id)
         if ego_accel is not None:

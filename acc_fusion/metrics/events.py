@@ -74,12 +74,10 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.levels import LEVEL_NAMES
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_range
 from acc_fusion.metrics.stats import Distribution, Histogram, Rate
-
-#: Names of the warning levels, indexed by level.
-LEVELS = ("none", "caution", "imminent")
 
 #: Histogram bins [s]: lead time over [-60, 60) and TTC over [0, 60), 0.01 s wide.
 LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
@@ -175,15 +173,16 @@ class FCWSummary:
     def format(self) -> str:
         """A readable multi-line summary."""
         pct = int(round(100 * self.confidence))
-        width = max(len(name) for name in LEVELS)
-        header = "oracle \\ system".ljust(16) + " ".join(n.rjust(width + 2) for n in LEVELS)
+        width = max(len(name) for name in LEVEL_NAMES)
+        header = "oracle \\ system".ljust(16) + " ".join(n.rjust(width + 2) for n in LEVEL_NAMES)
         rows = [
             f"  {name:<14}" + " ".join(str(c).rjust(width + 2) for c in counts)
-            for name, counts in zip(LEVELS, self.confusion, strict=True)
+            for name, counts in zip(LEVEL_NAMES, self.confusion, strict=True)
         ]
         return "\n".join(
             [
-                f"FCW metrics: warning level >= {self.warn_level} ({LEVELS[self.warn_level]}), "
+                f"FCW metrics: warning level >= {self.warn_level} "
+                f"({LEVEL_NAMES[self.warn_level]}), "
                 f"tolerance {self.tolerance:g} s, {pct} % intervals",
                 f"exposure              {self.hours:.4g} h, {self.km:.4g} km",
                 f"warnings              {self.warnings} ({self.false_alarms} false alarms)",

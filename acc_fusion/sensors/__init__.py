@@ -1,2 +1,3 @@
-"""Stage 2, sensors: radar and infrared measurement models with noise, limits, clutter and faults.
+"""Stage 2, sensors: radar and infrared measurement models with noise, limits, clutter and
+faults.
 """

@@ -3,7 +3,7 @@ r"""Sensors: turn ground truth into what a radar or an infrared camera reports.
 Pipeline stage 2 (truth source → **sensors** → local filters).  A :class:`Sensor` takes one
 :class:`~acc_fusion.truth.frame.TruthFrame` per simulation step and returns a :class:`Measurement`
 of ``[range, range-rate]`` for each of the N follower→leader pairs (the measurement model of
-:mod:`acc_fusion.filters.models`, :math:`Z = H X + W`, :math:`H = [I_2\ 0]`).
+:mod:`acc_fusion.core.motion`, :math:`Z = H X + W`, :math:`H = [I_2\ 0]`).
 
 Sample timing
     A sensor samples at ``phase + k / rate_hz``, ``k = 0, 1, ...``; it reports at the first
@@ -65,9 +65,9 @@ from numba import njit
 
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.motion import MEAS_DIM
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_interval, check_range
-from acc_fusion.filters.models import MEAS_DIM
 from acc_fusion.sensors.faults import Fault, Report, apply_faults
 from acc_fusion.truth.frame import TruthFrame
 

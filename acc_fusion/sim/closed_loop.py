@@ -23,6 +23,7 @@ from numba import njit
 from tqdm.auto import tqdm
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.slots import Extent, PairState, resize_all
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
@@ -30,11 +31,11 @@ from acc_fusion.fusion.estimators import FUSION_METHODS, Estimate, FusionConfig,
 from acc_fusion.metrics.events import FCWMetrics, FCWSummary
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
-from acc_fusion.studies.estimation import SENSOR_NAMES, make_sensors
+from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.scripted import SCENARIOS, make_scenario
-from acc_fusion.warning.logic import IMMINENT, WarningConfig, WarningLogic
+from acc_fusion.warning.logic import WarningConfig, WarningLogic
 from acc_fusion.warning.safety import safety_distances, time_to_collision
 
 #: The methods compared by default: each sensor alone, centralized and federated fusion.
@@ -422,155 +423,3 @@ def simulate(
         collision_speed=source.collision_speed,
         steps=steps,
     )
-
-
-#: Radar clutter of the comparison runs: ghosts of stationary roadside objects, the classic
-#: cause of FCW false alarms (0.05 per second per vehicle: one every 20 s of driving).
-COMPARE_CLUTTER = {"ghost_rate": 0.05}
-
-
-#: Columns of :func:`summary_row`.
-SUMMARY_COLUMNS = (
-    "method",
-    "warnings",
-    "false_alarms",
-    "fa_per_hour",
-    "fa_per_100km",
-    "missed",
-    "miss_rate",
-    "lead_time_median_s",
-)
-
-
-def summary_row(method: str, s: FCWSummary) -> dict:
-    """One method's metrics as a table row (rates with their 95 % intervals)."""
-    return {
-        "method": method,
-        "warnings": s.warnings,
-        "false_alarms": s.false_alarms,
-        "fa_per_hour": s.false_alarms_per_hour.format(),
-        "fa_per_100km": s.false_alarms_per_100km.format(),
-        "missed": f"{s.missed}/{s.threats}",
-        "miss_rate": s.miss_rate.format(),
-        "lead_time_median_s": s.lead_time.median,
-    }
-
-
-def on_off_table(
-    title: str,
-    off: dict[str, FCWSummary],
-    on: dict[str, FCWSummary],
-    *,
-    subject: str = "equipped",
-    same: str = "same seed",
-):
-    """The per-method table of a traffic study run with FCW off and on.
-
-    ``off``: every method's metrics of the open-loop run (no driver hears an alert); ``on``:
-    the closed-loop run, whose single method's alerts make the drivers brake, on the same
-    traffic (``same`` says how it is the same).  One row per method of ``off`` (its
-    :func:`summary_row` and its collisions with FCW off), then notes: the exposure and the
-    collisions of the ``subject`` vehicles with FCW off and on.
-    """
-    from acc_fusion.studies.estimation import Table
-
-    t = Table(title, (*SUMMARY_COLUMNS, "collisions_fcw_off"))
-    for m, s in off.items():
-        t.rows.append({**summary_row(m, s), "collisions_fcw_off": s.collisions})
-    drive, on_summary = next(iter(on.items()), (None, None))
-    first = next(iter(off.values()), None)
-    if first is not None:
-        t.notes.append(f"exposure: {first.hours:.2f} h, {first.km:.1f} km of {subject} driving")
-    if on_summary is not None:
-        t.notes.append(
-            f"{subject}-vehicle collisions: {first.collisions if first else '-'} with FCW off, "
-            f"{on_summary.collisions} with {drive} FCW on ({same})"
-        )
-    return t
-
-
-def compare_config(**overrides) -> SimConfig:
-    """The comparison's defaults: the randomised suite, radar clutter, open loop."""
-    overrides.setdefault("radar", COMPARE_CLUTTER)
-    return SimConfig(**{"scenario": "random", **overrides})
-
-
-@dataclass
-class Comparison:
-    """Open-loop metrics of every method plus collisions with warnings on and off."""
-
-    result: SimResult
-    collisions: dict[str, int]
-
-    def table(self):
-        """The false-alarm / miss / lead-time table with 95 % intervals."""
-        from acc_fusion.studies.estimation import Table
-
-        cfg = self.result.config
-        level = "imminent" if cfg.warn_level == IMMINENT else "caution"
-        t = Table(
-            f"FCW comparison: {cfg.runs} runs of '{cfg.scenario}', seed {cfg.seed}, "
-            f"{level} alerts, tolerance {cfg.tolerance:g} s, 95% intervals",
-            (*SUMMARY_COLUMNS, "ttc_at_warning_median_s"),
-        )
-        for m, s in self.result.summaries.items():
-            t.rows.append({**summary_row(m, s), "ttc_at_warning_median_s": s.ttc_at_warning.median})
-        first = next(iter(self.result.summaries.values()))
-        c = self.collisions
-        t.notes += [
-            f"exposure: {first.hours:.2f} h, {first.km:.1f} km of driving",
-            f"closed loop ({c['drive']} alerts a driver who brakes after his reaction time): "
-            f"{c['on']} collisions in {c['runs']} runs with warnings, {c['off']} without",
-        ]
-        return t
-
-
-def compare(config: SimConfig, *, progress: bool = False) -> Comparison:
-    """Every method on the same runs (open loop), then collisions with the last method's
-    warnings on and off on the same seeds (closed loop)."""
-    result = simulate(replace(config, drive=None), progress=progress)
-    drive = config.drive or config.methods[-1]
-    closed = replace(config, drive=drive, methods=(drive,))
-    on = simulate(closed, progress=progress)
-    off = simulate(closed, progress=progress, warnings_on=False)
-    collisions = {"drive": drive, "on": int(on.collided.sum()), "off": int(off.collided.sum())}
-    return Comparison(result, {**collisions, "runs": config.runs})
-
-
-@dataclass
-class ConformanceResult:
-    """TTC at the first warning of every trial of every standard manoeuvre."""
-
-    requirement: object
-    ttc: np.ndarray
-    passed: np.ndarray
-    needed: int
-
-    @property
-    def ok(self) -> bool:
-        return int(self.passed.sum()) >= self.needed
-
-
-def conformance(
-    trials: int = 7, seed: int = 0, base: SimConfig | None = None, *, progress: bool = False
-) -> list[ConformanceResult]:
-    """Run every standard manoeuvre of :mod:`acc_fusion.metrics.protocols` with noisy sensors.
-
-    Each manoeuvre runs ``trials`` trials (open loop: the subject vehicle keeps its test
-    speed, as in the protocols) with the federated method (or ``base.methods[-1]``); a trial
-    passes when its first alert comes at a TTC of at least the requirement, and the
-    manoeuvre passes when at least ``min_passes / n_trials`` of its trials pass (5 of 7).
-    """
-    from acc_fusion.metrics.protocols import REQUIREMENTS
-
-    base = base or SimConfig()
-    method = base.methods[-1]
-    out = []
-    for name, req in REQUIREMENTS.items():
-        cfg = replace(base, scenario=name, runs=trials, seed=seed, methods=(method,), drive=None)
-        first = FirstWarning(trials, method, cfg.warn_level)
-        simulate(cfg, progress=progress, on_step=first)
-        passed = req.trial_passes(first.ttc)
-        needed = int(np.ceil(req.min_passes * trials / req.n_trials - 1e-9))
-        out.append(ConformanceResult(req, first.ttc, passed, needed))
-    return out

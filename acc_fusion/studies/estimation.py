@@ -9,78 +9,24 @@ batched over pairs), so hundreds of runs cost little more than one.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import replace
 
-import numpy as np
-
+from acc_fusion.core.table import Table
 from acc_fusion.filters import kalman
 from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import (
-    InfraredSensor,
-    RadarSensor,
-    SensorSpec,
     infrared_spec,
     radar_spec,
 )
+from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.estimation import chi2_mean_bounds, run_estimation
 from acc_fusion.truth.frame import LinearGaussianSource
 
-SENSOR_NAMES = ("radar", "infrared")
 #: Relative-jerk std of the car-following studies [m/s³]: the truth and the filters share it.
 FOLLOWING_JERK = 0.5
 FOLLOWING_FILTER = FilterConfig(jerk_std=FOLLOWING_JERK)
-
-
-@dataclass
-class Table:
-    """A small result table: a title, column names and rows (dicts keyed by column)."""
-
-    title: str
-    columns: Sequence[str]
-    rows: list[dict] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-
-    def row(self, value: object, column: str | None = None) -> dict:
-        """The first row whose ``column`` (default: the first column) equals ``value``."""
-        col = column or self.columns[0]
-        return next(r for r in self.rows if r[col] == value)
-
-    def format(self) -> str:
-        """The table as aligned plain text."""
-
-        def cell(v: object) -> str:
-            if isinstance(v, float):
-                return f"{v:.4g}"
-            return str(v)
-
-        body = [[cell(r.get(c, "")) for c in self.columns] for r in self.rows]
-        widths = [max(len(c), *(len(b[i]) for b in body)) for i, c in enumerate(self.columns)]
-        lines = [
-            self.title,
-            "  ".join(c.ljust(w) for c, w in zip(self.columns, widths, strict=True)),
-        ]
-        lines.append("  ".join("-" * w for w in widths))
-        lines += ["  ".join(v.ljust(w) for v, w in zip(b, widths, strict=True)) for b in body]
-        return "\n".join(lines + self.notes)
-
-
-def make_sensors(
-    seed: int,
-    radar: SensorSpec | None = None,
-    infrared: SensorSpec | None = None,
-    radar_faults: Sequence[Fault] = (),
-    infrared_faults: Sequence[Fault] = (),
-) -> list:
-    """A radar and an infrared sensor with independent random streams derived from ``seed``."""
-    ss = np.random.SeedSequence(seed).spawn(2)
-    return [
-        RadarSensor(radar or radar_spec(), radar_faults, seed=np.random.default_rng(ss[0])),
-        InfraredSensor(
-            infrared or infrared_spec(), infrared_faults, seed=np.random.default_rng(ss[1])
-        ),
-    ]
 
 
 def kong2011(

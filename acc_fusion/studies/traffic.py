@@ -20,7 +20,8 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.metrics.events import FCWSummary
-from acc_fusion.sim.closed_loop import SimConfig, StepView, on_off_table, simulate
+from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
+from acc_fusion.studies.compare import on_off_table
 
 
 def bundled_nets() -> dict[str, Path]:

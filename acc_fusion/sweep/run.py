@@ -845,7 +845,7 @@ def write_tables(cfg: SweepConfig, rows, out: Path) -> list[Path]:
 
 def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``sweep`` command to the ``acc-fusion`` sub-parsers (:func:`cmd_sweep`)."""
-    from acc_fusion.cli.main import positive_int
+    from acc_fusion.cli.common import positive_int
 
     p = subparsers.add_parser(
         "sweep",
@@ -879,7 +879,7 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``acc-fusion sweep``: run (or resume) the sweep and print the per-method table."""
-    from acc_fusion.studies.estimation import Table
+    from acc_fusion.core.table import Table
 
     cfg = load_sweep(args.config)
     out = Path(args.out or Path("out") / f"sweep_{cfg.name}")

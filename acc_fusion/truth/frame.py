@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from acc_fusion.core.errors import InputError
+from acc_fusion.core.motion import ca_transition
 from acc_fusion.core.validation import check_array
-from acc_fusion.filters.models import ca_transition
 
 
 @dataclass(frozen=True)
@@ -194,7 +194,7 @@ class LinearGaussianSource:
     r"""Relative motion drawn from the estimator's own model: the linear-Gaussian test bed.
 
     The relative state of every pair follows the constant-acceleration model of
-    :mod:`acc_fusion.filters.models` exactly, :math:`X(k+1) = \Phi X(k) + w`, :math:`w \sim N(0,
+    :mod:`acc_fusion.core.motion` exactly, :math:`X(k+1) = \Phi X(k) + w`, :math:`w \sim N(0,
     Q)`,
     so the Kalman filter is the optimal estimator and its consistency (NEES, NIS) can be
     tested against chi-square bounds.  The ego drives at a constant ``ego_speed``; the lead's

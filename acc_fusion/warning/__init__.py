@@ -1,2 +1,1 @@
-"""Stage 5, warning: safety-distance models and the warning logic (levels, hysteresis).
-"""
+"""Stage 5, warning: safety-distance models and the warning logic (levels, hysteresis)."""

@@ -41,12 +41,10 @@ from numba import njit
 
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.warning.safety import SAFETY_MODELS, distances_unchecked, model_constants
-
-NONE, CAUTION, IMMINENT = 0, 1, 2
-LEVEL_NAMES = ("none", "caution", "imminent")
 
 
 @dataclass(frozen=True)

@@ -1,2 +1,1 @@
-"""highway-env as a truth source.
-"""
+"""highway-env as a truth source."""

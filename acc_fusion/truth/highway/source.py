@@ -110,12 +110,13 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from acc_fusion.core.errors import AccFusionError, ConfigError, InputError
+from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.metrics.events import FCWSummary
-from acc_fusion.sim.closed_loop import SimConfig, StepView, on_off_table, simulate
+from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
+from acc_fusion.studies.compare import on_off_table
 from acc_fusion.truth.frame import SlotSource, TruthFrame
-from acc_fusion.truth.sumo.source import WARNING_COLORS
-from acc_fusion.warning.logic import LEVEL_NAMES, WarningConfig
+from acc_fusion.warning.logic import WarningConfig
 from acc_fusion.warning.safety import safety_distances
 
 #: highway-env environments with a road carrying traffic that the source supports.
@@ -914,7 +915,7 @@ def highway_study(
 # -------------------------------------------------------------------- command line
 def add_highway_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``highway`` command to the ``acc-fusion`` sub-parsers (:func:`cmd_highway`)."""
-    from acc_fusion.cli.main import positive_float, positive_int
+    from acc_fusion.cli.common import positive_float, positive_int
 
     p = subparsers.add_parser(
         "highway",
@@ -958,7 +959,7 @@ def add_highway_parser(subparsers) -> argparse.ArgumentParser:
 
 def cmd_highway(args: argparse.Namespace) -> int:
     """``acc-fusion highway``: print the table (and write CSV/PNG/JSON with ``--out``)."""
-    from acc_fusion.cli.main import sim_config, write_study
+    from acc_fusion.cli.common import sim_config, write_study
     from acc_fusion.core.outputs import output_dir
 
     cfg = HighwayConfig(

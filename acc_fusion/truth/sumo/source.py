@@ -137,6 +137,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.levels import WARNING_COLORS
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.sumo.native import sumo_reader
@@ -149,8 +150,6 @@ SPEED_MODE_MAX_DECEL = 0b100
 #: Cap of :attr:`SumoSource.n_steps` when neither the config nor the ``.sumocfg`` gives an end
 #: (the run then ends when no vehicle is left) [s of simulated time].
 UNBOUNDED_END = 86400.0
-#: Colours of :meth:`SumoSource.set_warning_colors` by warning level (none, caution, imminent).
-WARNING_COLORS = ((40, 180, 40, 255), (255, 200, 0, 255), (230, 30, 30, 255))
 #: Steps between two checks for vehicles that left without an event (bounded memory).
 SWEEP_STEPS = 1000
 #: Tolerance on simulated times [s].
