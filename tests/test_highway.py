@@ -18,13 +18,13 @@ pytest.importorskip("highway_env")
 from acc_fusion.cli.main import main  # noqa: E402
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.sim.closed_loop import SimConfig  # noqa: E402
-from acc_fusion.truth.highway.source import (  # noqa: E402
+from acc_fusion.studies.highway import highway_study
+from acc_fusion.truth.highway.source import (
     INSTALL,
     SUPPORTED,
     HighwayConfig,
     HighwayError,
     HighwaySource,
-    highway_study,
     load_highway_env,
 )
 
@@ -264,7 +264,7 @@ def test_bad_values_are_one_sentence_errors(monkeypatch, tmp_path, capsys):
     assert main(["highway", "--render", str(tmp_path / "x.avi")]) == 2
     assert "'.gif', '.mp4'" in capsys.readouterr().err
     monkeypatch.setitem(sys.modules, "imageio", None)
-    from acc_fusion.truth.highway.source import check_replay_path
+    from acc_fusion.studies.highway import check_replay_path
 
     with pytest.raises(ConfigError, match="imageio"):
         check_replay_path(tmp_path / "x.mp4")

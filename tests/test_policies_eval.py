@@ -10,15 +10,10 @@ import pytest
 
 pytest.importorskip("gymnasium")
 
+from acc_fusion.cli import evaluate as evaluate_command
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.envs.collision_warning import OBS_FIELDS  # noqa: E402
-from acc_fusion.envs.evaluation import (  # noqa: E402
-    add_evaluate_parser,
-    episode_seed,
-    evaluate,
-    evaluate_many,
-    load_policy,
-)
+from acc_fusion.envs.evaluation import episode_seed, evaluate, evaluate_many, load_policy
 from acc_fusion.envs.policies import (  # noqa: E402
     BASELINES,
     AlwaysWarn,
@@ -310,9 +305,8 @@ def test_an_sb3_model_file_needs_stable_baselines3(tmp_path):
 
 def run_command(argv):
     parser = argparse.ArgumentParser(prog="acc-fusion")
-    add_evaluate_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["evaluate", *argv])
-    return args.func(args)
+    evaluate_command.add_parser(parser.add_subparsers(dest="command", required=True))
+    return evaluate_command.run(parser.parse_args(["evaluate", *argv]))
 
 
 def test_evaluate_command_prints_the_table_and_writes_files(tmp_path, capsys):

@@ -5,6 +5,18 @@ from __future__ import annotations
 
 import argparse
 
+import yaml
+
+from acc_fusion.core.config import from_mapping, load_mapping
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_json_atomic
+from acc_fusion.core.plots import rates_figure
+from acc_fusion.core.schema import field_at
+from acc_fusion.core.validation import check_choice
+from acc_fusion.fusion.estimators import FUSION_METHODS
+from acc_fusion.sensors.suite import SENSOR_NAMES
+from acc_fusion.sim.closed_loop import SimConfig
+
 
 def positive_int(text: str) -> int:
     """argparse type: a whole number >= 1."""
@@ -40,27 +52,95 @@ def study_parser(doc: str, runs: int, plot_help: str | None = None) -> argparse.
     return parser
 
 
-def sim_config(args: argparse.Namespace, **defaults):
-    """SimConfig from defaults, then ``--config`` FILE, then the flags given."""
-    from acc_fusion.core.config import from_mapping, load_mapping
-    from acc_fusion.sim.closed_loop import SimConfig
+def seed(text: str) -> int:
+    """argparse type: a seed, a whole number in [0, 2**63)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2**63), got {value}")
+    return value
 
-    data = dict(defaults)
-    if args.config:
-        data.update(load_mapping(args.config))
+
+def add_config_arguments(p: argparse.ArgumentParser) -> None:
+    """``--config FILE`` and ``--set KEY=VALUE`` (repeatable): the simulation config's sources."""
+    p.add_argument(
+        "--config",
+        metavar="FILE",
+        help="TOML or YAML file of config fields (see `acc-fusion config schema`)",
+    )
+    p.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="set one config field by its dotted path, e.g. --set fusion.reset=zero "
+        "(applied after --config; VALUE is read as YAML)",
+    )
+
+
+def add_sim_arguments(p: argparse.ArgumentParser, runs_help: str | None) -> None:
+    """The arguments of every command that runs the simulation: the config's sources, ``--seed``
+    and, with ``runs_help``, ``--runs``."""
+    add_config_arguments(p)
+    p.add_argument("--seed", type=seed, help="random seed (default 0)")
+    if runs_help:
+        p.add_argument("--runs", type=positive_int, help=runs_help)
+
+
+def config_data(args: argparse.Namespace) -> tuple[dict, str]:
+    """The config mapping a user gave (``--config`` file, then ``--set`` flags) and a label of
+    its source for :func:`acc_fusion.core.schema.describe`."""
+    data: dict = {}
+    sources = []
+    if getattr(args, "config", None):
+        data = load_mapping(args.config)
+        sources.append(f"file {args.config}")
+    for item in getattr(args, "overrides", []):
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ConfigError(f"--set takes KEY=VALUE, got {item!r}")
+        field_at(SimConfig, key)  # raises, naming the allowed keys
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise ConfigError(f"--set {key}: {text!r} is not a YAML value") from None
+        _set(data, key, value)
+        sources.append("--set")
+    return data, " / ".join(dict.fromkeys(sources))
+
+
+def _set(data: dict, dotted: str, value: object) -> None:
+    *parents, leaf = dotted.split(".")
+    for part in parents:
+        node = data.get(part)
+        if not isinstance(node, dict):
+            node = data[part] = {}
+        data = node
+    data[leaf] = value
+
+
+def sim_config(args: argparse.Namespace, **defaults) -> SimConfig:
+    """SimConfig from defaults, then ``--config`` FILE and ``--set`` flags, then the flags given."""
+    given, _ = config_data(args)
+    data = {**defaults, **given}
     for key in ("scenario", "runs", "seed", "method"):
         value = getattr(args, key, None)
-        if value is not None:
-            if key == "method":
-                data["methods"] = tuple(dict.fromkeys([*data.get("methods", ()), value]))
-                data["drive"] = value
-            else:
-                data[key] = value
+        if value is None:
+            continue
+        if key == "method":
+            check_choice("--method", value, SENSOR_NAMES + FUSION_METHODS)
+            data["methods"] = tuple(dict.fromkeys([*data.get("methods", ()), value]))
+            data["drive"] = value
+        else:
+            data[key] = value
     return from_mapping(SimConfig, data)
 
 
 def write_summary(out, name: str, payload: dict) -> None:
-    from acc_fusion.core.outputs import write_json_atomic
+    """Write ``payload`` as JSON to ``out/name`` and say so."""
 
     write_json_atomic(out / name, payload)
     print(f"wrote {out / name}")
@@ -69,8 +149,6 @@ def write_summary(out, name: str, payload: dict) -> None:
 def write_study(out, stem: str, table, study, **fields) -> None:
     """Write a traffic study (FCW off and on): ``stem``.csv (the table), .png (the rates of
     the FCW-off run) and .json (``fields`` and both runs' summaries) into ``out``."""
-    from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
-    from acc_fusion.core.plots import rates_figure
 
     write_csv_atomic(out / f"{stem}.csv", table.columns, table.rows)
     save_figure_atomic(rates_figure(study.off.summaries, table.title), out / f"{stem}.png")

@@ -90,6 +90,8 @@ class SimConfig:
         check_choice("scenario", self.scenario, tuple(SCENARIOS))
         if not isinstance(self.runs, int) or not 1 <= self.runs <= 10_000_000:
             raise ConfigError(f"runs must be a whole number in [1, 10000000], got {self.runs!r}")
+        if not isinstance(self.seed, int) or not 0 <= self.seed < 2**63:
+            raise ConfigError(f"seed must be a whole number in [0, 2**63), got {self.seed!r}")
         check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
         if self.duration is not None:
             check_range("duration", self.duration, 0.0, 1e6, lo_open=True)
