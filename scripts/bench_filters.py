@@ -29,7 +29,8 @@ from dataclasses import replace
 import numpy as np
 
 from acc_fusion.core.table import Table
-from acc_fusion.fusion.estimators import FusionConfig, make_estimator
+from acc_fusion.fusion.config import FusionConfig
+from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source

@@ -24,7 +24,8 @@ import tempfile
 import time
 
 from acc_fusion.cli.common import positive_int
-from acc_fusion.sweep.run import SweepConfig, run_sweep
+from acc_fusion.sweep.config import SweepConfig
+from acc_fusion.sweep.run import run_sweep
 
 
 def sweep_config(runs_per_point: int, chunk: int) -> SweepConfig:

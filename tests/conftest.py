@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
+from acc_fusion.fusion.config import FilterConfig, FusionConfig
+from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.sensor import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.estimation import run_estimation

@@ -8,7 +8,8 @@ from conftest import linear_gaussian_source, linear_sensors
 
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
+from acc_fusion.fusion.config import FilterConfig, FusionConfig
+from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.fdi import FDIConfig
 from acc_fusion.sensors.sensor import Measurement, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from conftest import LG_FILTER, linear_gaussian_source, linear_sensors
 
-from acc_fusion.fusion.estimators import FusionConfig, make_estimator
+from acc_fusion.fusion.config import FusionConfig
+from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.suite import SENSOR_NAMES
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import LG_FILTER, run_methods
 
-from acc_fusion.fusion.estimators import FusionConfig
+from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.sim.estimation import chi2_mean_bounds
 
 
@@ -110,7 +110,7 @@ def test_fdi_rarely_isolates_a_healthy_sensor():
 
 
 def test_lose_kernel_matches_its_numpy_form():
-    from acc_fusion.fusion.estimators import _lose
+    from acc_fusion.fusion.kernels import _lose
 
     rng = np.random.default_rng(0)
     n, t, limit = 200, 5.0, 1.0 + 1e-9

@@ -18,8 +18,9 @@ from acc_fusion.cli.main import main
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.sweep.config import SweepConfig, load_sweep
 from acc_fusion.sweep.executors import check_address
-from acc_fusion.sweep.run import SweepConfig, load_sweep, run_sweep
+from acc_fusion.sweep.run import run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 

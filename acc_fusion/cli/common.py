@@ -11,9 +11,9 @@ from acc_fusion.core.config import from_mapping, load_mapping
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_json_atomic
 from acc_fusion.core.plots import rates_figure
-from acc_fusion.core.schema import field_at
+from acc_fusion.core.schema import field_at, set_path
 from acc_fusion.core.validation import check_choice
-from acc_fusion.fusion.estimators import FUSION_METHODS
+from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
 
@@ -107,19 +107,9 @@ def config_data(args: argparse.Namespace) -> tuple[dict, str]:
             value = yaml.safe_load(text)
         except yaml.YAMLError:
             raise ConfigError(f"--set {key}: {text!r} is not a YAML value") from None
-        _set(data, key, value)
+        set_path(data, key, value)
         sources.append("--set")
     return data, " / ".join(dict.fromkeys(sources))
-
-
-def _set(data: dict, dotted: str, value: object) -> None:
-    *parents, leaf = dotted.split(".")
-    for part in parents:
-        node = data.get(part)
-        if not isinstance(node, dict):
-            node = data[part] = {}
-        data = node
-    data[leaf] = value
 
 
 def sim_config(args: argparse.Namespace, **defaults) -> SimConfig:

@@ -9,8 +9,10 @@ from pathlib import Path
 
 from acc_fusion.cli.common import positive_int
 from acc_fusion.core.table import Table
+from acc_fusion.sweep.aggregate import aggregate, formatted
+from acc_fusion.sweep.config import load_sweep
 from acc_fusion.sweep.executors import EXECUTORS
-from acc_fusion.sweep.run import aggregate, formatted, load_sweep, run_sweep
+from acc_fusion.sweep.run import run_sweep
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -14,6 +14,7 @@ field in an ``Attributes:`` section, with its unit in square brackets (``dt: sim
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import re
 import types
@@ -136,9 +137,7 @@ def _owner(cls: type, name: str) -> str:
     for base in cls.__mro__:
         if name in getattr(base, "__annotations__", {}):
             return f"{base.__module__}.{base.__qualname__}"
-    return (
-        f"{cls.__module__}.{cls.__qualname__}"  # pragma: no cover - dataclass fields are annotated
-    )
+    return f"{cls.__module__}.{cls.__qualname__}"  # pragma: no cover - fields are annotated
 
 
 def field_at(cls: type, path: str) -> FieldInfo:
@@ -268,3 +267,14 @@ def _flatten(data: Mapping[str, Any], prefix: str = "") -> list[str]:
         if isinstance(v, Mapping):
             out += _flatten(v, f"{key}.")
     return out
+
+
+def set_path(data: dict, dotted: str, value: object) -> None:
+    """Set ``data[a][b][c] = value`` for ``dotted = "a.b.c"``; the tables on the way are copied
+    (or created), so a mapping shared with other configs is never changed, and so is ``value``."""
+    *parents, leaf = dotted.split(".")
+    for part in parents:
+        inner = data.get(part)
+        data[part] = inner = dict(inner) if isinstance(inner, Mapping) else {}
+        data = inner
+    data[leaf] = copy.deepcopy(value)

@@ -13,15 +13,19 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
+from acc_fusion.core.plots import warning_frame
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import Perception, SimConfig
+from acc_fusion.studies.traffic import resolve_sumocfg
 from acc_fusion.truth.driver import Driver
 from acc_fusion.truth.frame import TruthFrame
+from acc_fusion.truth.highway.source import HighwayConfig, HighwaySource, load_highway_env
 from acc_fusion.truth.scripted import SCENARIOS, make_scenario
-from acc_fusion.truth.sumo.source import SumoError
+from acc_fusion.truth.sumo.source import SumoConfig, SumoError, SumoSource, check_sumocfg
 from acc_fusion.warning.safety import safety_distances
 
 #: Names of the observation's entries, in order (see the environment's docstring).
@@ -122,8 +126,6 @@ class SumoOptions:
     capacity: int = 256
 
     def __post_init__(self) -> None:
-        from acc_fusion.studies.traffic import resolve_sumocfg
-        from acc_fusion.truth.sumo.source import check_sumocfg
 
         if self.net is not None and self.sumocfg is not None:
             raise ConfigError("give one of sumo.net and sumo.sumocfg, not both")
@@ -144,7 +146,6 @@ class SumoOptions:
         """The :class:`acc_fusion.truth.sumo.source.SumoConfig` of a simulation with SUMO seed
         ``seed`` and
         step ``dt`` [s] (the environment's step)."""
-        from acc_fusion.truth.sumo.source import SumoConfig
 
         try:
             return SumoConfig(
@@ -225,7 +226,6 @@ class HighwayOptions:
         """The :class:`acc_fusion.truth.highway.source.HighwayConfig` of one episode from ``seed``
         with the
         controlled vehicle as the only pair."""
-        from acc_fusion.truth.highway.source import HighwayConfig
 
         try:
             return HighwayConfig(
@@ -469,7 +469,6 @@ class CollisionWarningEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        from acc_fusion.core.plots import warning_frame
 
         return warning_frame(self._history, self.scenario)
 
@@ -498,7 +497,6 @@ def _open_traffic(source: str, options, config: SimConfig) -> _SumoTraffic | _Hi
     """The external traffic of ``source`` (one of :data:`EXTERNAL_SOURCES`) from its
     ``options`` (the options' class, a mapping of its fields, or ``None``: the defaults) and
     the environment's ``config``; the simulator must be installed."""
-    from acc_fusion.core.config import from_mapping
 
     traffic = {"sumo": _SumoTraffic, "highway": _HighwayTraffic}[source]
     traffic.check_installed()
@@ -618,12 +616,10 @@ class _HighwayTraffic:
 
     @staticmethod
     def check_installed() -> None:
-        from acc_fusion.truth.highway.source import load_highway_env
 
         load_highway_env()
 
     def __init__(self, options: HighwayOptions, config: SimConfig) -> None:
-        from acc_fusion.truth.highway.source import HighwaySource
 
         self.options, self.name = options, options.env
         self.config = replace(config, dt=options.dt)  # the sensors run at highway-env's step
@@ -683,7 +679,6 @@ class _SumoTraffic:
                 attempt, restart = attempt + 1, True
 
     def _start(self, rng: np.random.Generator) -> None:
-        from acc_fusion.truth.sumo.source import SumoSource
 
         self.close()
         self.sim = SumoSource(self.options.sumo_config(int(rng.integers(2**31)), self.dt))

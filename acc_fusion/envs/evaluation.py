@@ -51,15 +51,15 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
-
-if TYPE_CHECKING:
-    from acc_fusion.core.table import Table
-    from acc_fusion.metrics.events import FCWSummary
+from acc_fusion.core.table import Table
+from acc_fusion.envs.collision_warning import CollisionWarningEnv
+from acc_fusion.envs.policies import BASELINES
+from acc_fusion.metrics.events import FCWMetrics, FCWSummary
 
 #: Stable-Baselines3 algorithms with a discrete action space, for ``[ALGO:]model.zip`` specs.
 SB3_ALGORITHMS = ("PPO", "A2C", "DQN")
@@ -239,7 +239,6 @@ def make_env(
     highway=None,
 ):
     """The :class:`~acc_fusion.envs.collision_warning.CollisionWarningEnv` evaluations run in."""
-    from acc_fusion.envs.collision_warning import CollisionWarningEnv
 
     return CollisionWarningEnv(
         source=source,
@@ -300,8 +299,6 @@ def evaluate(
     (2, 2)
     """
     from tqdm.auto import tqdm
-
-    from acc_fusion.metrics.events import FCWMetrics
 
     episodes = _whole("episodes", episodes, 1)
     seed = _whole("seed", seed, 0)
@@ -381,7 +378,6 @@ COLUMNS = (
 def comparison_table(evaluations: Sequence[Evaluation]) -> Table:
     """One row per evaluation: false alarms per hour and miss rate with 95 % intervals,
     median lead time, collisions (episodes), mean reward per episode."""
-    from acc_fusion.core.table import Table
 
     if not evaluations:
         raise ConfigError("comparison_table needs at least one evaluation")
@@ -573,7 +569,6 @@ def load_policy(spec: str) -> object:
     malformed, the module or attribute does not exist, importing fails or the object is not
     a policy.
     """
-    from acc_fusion.envs.policies import BASELINES
 
     help_ = _SPEC_HELP.format(baselines=", ".join(BASELINES), spec=spec)
     if not isinstance(spec, str) or not spec.strip():

@@ -69,7 +69,9 @@ from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from stable_baselines3.common.vec_env import VecEnv
 
+import acc_fusion  # noqa: F401  (registers the environment)
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.envs.collision_warning import OBS_FIELDS
 
 ENV_ID = "acc_fusion/CollisionWarning-v0"
 
@@ -203,7 +205,6 @@ def make_vec_env(num_envs: int = 64, **env_kwargs) -> GymVectorToSB3:
     ``env_kwargs`` go to :class:`~acc_fusion.envs.collision_warning.CollisionWarningVectorEnv`
     (``scenario``, ``config``, ``reward``, ``max_episode_steps``).
     """
-    import acc_fusion  # noqa: F401  (registers the environment)
 
     venv = gym.make_vec(
         ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point", **env_kwargs
@@ -247,7 +248,6 @@ class FCWFeatures(BoxScaler):
     """
 
     def __init__(self, observation_space: spaces.Box) -> None:
-        from acc_fusion.envs.collision_warning import OBS_FIELDS
 
         super().__init__(observation_space)
         if observation_space.shape != (len(OBS_FIELDS),):

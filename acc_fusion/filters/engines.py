@@ -9,7 +9,7 @@ An estimator (single sensor, centralized, federated, …) is written once, again
 * ``batched``: the same equations as numba kernels over all pairs at once
   (:mod:`acc_fusion.filters.kalman`).  The default; everything at scale runs on it.  The federated
   filter's whole step runs there as one kernel that applies the same per-filter operations
-  pair by pair (:meth:`~acc_fusion.fusion.estimators.FederatedFilter._advance_batched`): a call per
+  pair by pair (:meth:`~acc_fusion.fusion.federated.FederatedFilter._advance_batched`): a call per
   operation cost more in Python than the operations themselves.
 
 Tests hold the two equal to 1e-9 (``tests/test_engines.py``).

@@ -27,7 +27,9 @@ from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.slots import Extent, PairState, resize_all
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
-from acc_fusion.fusion.estimators import FUSION_METHODS, Estimate, FusionConfig, make_estimator
+from acc_fusion.fusion.base import Estimate
+from acc_fusion.fusion.config import FUSION_METHODS, FusionConfig
+from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.metrics.events import FCWMetrics, FCWSummary
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
@@ -225,7 +227,7 @@ class Perception(PairState):
     """Sensors, ego-motion filter, every method's estimator, and the oracle, over N pairs.
 
     One step of :meth:`step` turns a truth frame into measurements, the ego-speed estimate,
-    one :class:`~acc_fusion.fusion.estimators.Estimate` per method, the oracle's warning level (the
+    one :class:`~acc_fusion.fusion.base.Estimate` per method, the oracle's warning level (the
     warning rule on ground truth) and the true TTC.  :func:`simulate` adds each method's
     warning logic, the metrics and the driver; the gymnasium environment adds a policy.
     :meth:`resize` makes it perceive the first m pairs only (:mod:`acc_fusion.core.slots`).

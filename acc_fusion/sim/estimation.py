@@ -22,7 +22,7 @@ import numpy as np
 from scipy.stats import chi2
 from tqdm.auto import tqdm
 
-from acc_fusion.fusion.estimators import Estimate, Estimator
+from acc_fusion.fusion.base import Estimate, Estimator
 from acc_fusion.sensors.sensor import Measurement, Sensor
 from acc_fusion.truth.frame import TruthFrame
 

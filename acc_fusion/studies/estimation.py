@@ -14,7 +14,8 @@ from dataclasses import replace
 
 from acc_fusion.core.table import Table
 from acc_fusion.filters import kalman
-from acc_fusion.fusion.estimators import FilterConfig, FusionConfig, make_estimator
+from acc_fusion.fusion.config import FilterConfig, FusionConfig
+from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import (
     infrared_spec,

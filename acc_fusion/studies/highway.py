@@ -1,4 +1,5 @@
-"""TODO docstring."""
+"""highway-env studies: FCW off and on over the same episodes (:func:`highway_study`), and the
+rendered replay of a run with the fused gap, safety distance and warning level drawn on it."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
+from acc_fusion.core.outputs import output_dir, write_bytes_atomic
 from acc_fusion.core.validation import check_choice
 from acc_fusion.metrics.events import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
@@ -36,7 +38,6 @@ def check_replay_path(path: str | os.PathLike) -> Path:
             imageio and ffmpeg.
         AccFusionError: the folder cannot be created or written.
     """
-    from acc_fusion.core.outputs import output_dir
 
     p = Path(path)
     suffix = p.suffix.lower()
@@ -144,8 +145,6 @@ class Replay:
     def save(self) -> Path:
         """Write the replay (atomically) and return its path."""
         import io
-
-        from acc_fusion.core.outputs import write_bytes_atomic
 
         if self._gif:
             if not self._frames:

@@ -22,6 +22,8 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.metrics.events import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.studies.compare import on_off_table
+from acc_fusion.truth.sumo.background import BackgroundSumoSource
+from acc_fusion.truth.sumo.source import SumoError, SumoSource
 
 
 def bundled_nets() -> dict[str, Path]:
@@ -103,8 +105,6 @@ def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> Sumo
     the pipeline (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`); in ``sumo-gui``
     (``sumo_config.gui``) the vehicles are coloured by the warning level of the last method
     of ``sim``."""
-    from acc_fusion.truth.sumo.background import BackgroundSumoSource
-    from acc_fusion.truth.sumo.source import SumoError, SumoSource
 
     config = replace(sumo_config, ssm=cross_check)
     background = sim.drive is None and not config.gui

@@ -2,7 +2,7 @@
 
 An executor takes the chunks still to run and yields ``(chunk, columns)`` as each finishes,
 in any order; the sweep stores every chunk's rows as it arrives.  A chunk's rows depend only
-on the chunk (:func:`acc_fusion.sweep.run.run_chunk`), so every executor gives the same rows.
+on the chunk (:func:`acc_fusion.sweep.chunks.run_chunk`), so every executor gives the same rows.
 
 ``local`` (default)
     A pool of ``workers`` spawned processes (:class:`concurrent.futures.ProcessPoolExecutor`).
@@ -28,13 +28,11 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from typing import TYPE_CHECKING
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.validation import check_choice
-
-if TYPE_CHECKING:
-    from acc_fusion.sweep.run import Chunk
+from acc_fusion.sweep.chunks import run_chunk
+from acc_fusion.sweep.points import Chunk
 
 EXECUTORS = ("local", "ray")
 #: Seconds allowed for a TCP connection to a Ray cluster's address.
@@ -62,7 +60,6 @@ def local_executor(workers: int = 2) -> Executor:
     """A pool of ``workers`` processes (spawned); SUMO chunks get a fresh process each."""
 
     def run(chunks: list[Chunk]) -> Iterator[tuple[Chunk, dict]]:
-        from acc_fusion.sweep.run import run_chunk
 
         if not chunks:
             return
@@ -159,7 +156,6 @@ def ray_executor(workers: int = 2, address: str | None = None) -> Executor:
             except (ConnectionError, RuntimeError, ValueError) as exc:
                 reason = str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
                 raise AccFusionError(f"cannot start Ray ({reason})") from None
-        from acc_fusion.sweep.run import run_chunk
 
         try:
             task = ray.remote(num_cpus=1)(run_chunk)

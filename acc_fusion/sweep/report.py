@@ -29,7 +29,8 @@ import numpy as np
 
 from acc_fusion.core import plots
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_text_atomic
-from acc_fusion.sweep.run import SweepConfig, aggregate, formatted
+from acc_fusion.sweep.aggregate import aggregate, formatted
+from acc_fusion.sweep.config import SweepConfig
 
 #: Floor of the DET plot's logarithmic axes: zero false alarms per hour / zero misses.
 DET_FLOOR = (1e-2, 1e-3)

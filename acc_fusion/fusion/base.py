@@ -1,0 +1,242 @@
+"""What every estimator shares (:class:`Estimator`): per-pair tracks over N pairs, track
+initialisation, coasting and loss, confirmation, and the :class:`Estimate` it returns.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.motion import (
+    MEASUREMENT_MATRIX,
+    STATE_DIM,
+    ca_process_noise,
+    ca_transition,
+    ego_input,
+)
+from acc_fusion.core.slots import PairState
+from acc_fusion.core.validation import check_array
+from acc_fusion.filters.engines import Engine
+from acc_fusion.fusion.config import FusionConfig
+from acc_fusion.fusion.kernels import (
+    _gather,
+    _lose,
+)
+from acc_fusion.sensors.sensor import Measurement
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What an estimator knows about every pair after one step.
+
+    Attributes:
+        t: time [s].
+        x: state estimates ``(N, 3)``: gap [m], range-rate [m/s], relative accel [m/s²].
+        p: covariances ``(N, 3, 3)``.
+        valid: ``(N,)`` pairs with an initialised track (``x`` is meaningless elsewhere).
+        nis: ``(N, S)`` NIS of each sensor's measurement against the estimator's prediction
+            at this step (NaN where the sensor did not report).
+        isolated: ``(N, S)`` sensors the fault detection has left out of the fusion.
+    """
+
+    t: float
+    x: np.ndarray
+    p: np.ndarray
+    valid: np.ndarray
+    nis: np.ndarray
+    isolated: np.ndarray
+
+    @property
+    def gap(self) -> np.ndarray:
+        """Estimated gap [m] ``(N,)``."""
+        return self.x[:, 0]
+
+    @property
+    def gap_std(self) -> np.ndarray:
+        """Standard deviation of the gap estimate [m] ``(N,)``."""
+        return np.sqrt(self.p[:, 0, 0])
+
+
+class Estimator(PairState, ABC):
+    """Common track management and input checks; subclasses implement ``_advance``."""
+
+    _PAIR_AXES = {"initialised": 0, "_target": 0, "_last": 0, "_nis": 0}
+
+    def __init__(self, sensors: Sequence[str], n_pairs: int, config: FusionConfig) -> None:
+        if n_pairs < 1:
+            raise ConfigError(f"n_pairs must be >= 1, got {n_pairs}")
+        self.sensors = tuple(sensors)
+        self.n_pairs = int(n_pairs)
+        self.config = config
+        self.engine = Engine(config.engine)
+        fc = config.filter
+        self.f = ca_transition(fc.dt)
+        self.b = ego_input(fc.dt)
+        self.q = (
+            ca_process_noise(fc.dt, fc.jerk_std) + np.outer(self.b, self.b) * fc.ego_accel_std**2
+        )
+        self.h = MEASUREMENT_MATRIX
+        self._u = None
+        self.reset()
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.sensors)
+
+    def _resized(self, m: int) -> None:
+        self.n_pairs = m
+
+    def reset(self) -> None:
+        """Forget every track."""
+        n = self.n_pairs
+        self.initialised = np.zeros(n, dtype=bool)
+        self._target = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
+        self._last = np.zeros(n)
+        self._nis = np.full((n, self.n_sensors), np.nan)
+        self._reset_state()
+
+    def forget(self, pairs: np.ndarray) -> None:
+        """Drop the tracks of ``pairs`` (a boolean mask), e.g. when a slot gets a new vehicle."""
+        pairs = np.asarray(pairs, dtype=bool)
+        if pairs.any():
+            self.initialised &= ~pairs
+            self._target[pairs] = np.iinfo(np.int64).min
+            self._drop(pairs)
+
+    @abstractmethod
+    def _reset_state(self) -> None: ...
+
+    @abstractmethod
+    def _advance(self, z, r, valid) -> np.ndarray:
+        """One predict/update cycle; returns the pairs that used a measurement."""
+
+    @abstractmethod
+    def _drop(self, pairs: np.ndarray) -> None:
+        """Forget the tracks of ``pairs`` (their filters are re-initialised later)."""
+
+    @abstractmethod
+    def _state(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    @property
+    def _coast_limit(self) -> float:
+        """Seconds a track may go without a measurement before it is lost (``max_coast``,
+        with a tolerance for the rounding of summed time steps)."""
+        return self.config.filter.max_coast + 1e-9
+
+    def _isolated(self) -> np.ndarray:
+        return np.zeros((self.n_pairs, self.n_sensors), dtype=bool)
+
+    def _reported(self) -> np.ndarray:
+        """The pairs whose estimate is reported as valid (a copy)."""
+        return self.initialised.copy()
+
+    def step(
+        self,
+        measurements: Sequence[Measurement],
+        target_id: np.ndarray,
+        ego_accel: np.ndarray | None = None,
+    ) -> Estimate:
+        """Advance every pair by one step with this step's measurements (one per sensor).
+
+        ``ego_accel (N,)`` is the ego's measured acceleration over the coming step [m/s²]:
+        the known input of the motion model (:func:`acc_fusion.core.motion.ego_input`).
+        """
+        z, r, valid, target_id = self._check(measurements, target_id)
+        if ego_accel is not None:
+            ego_accel = check_array("ego_accel", ego_accel, (self.n_pairs,))
+        self._u = ego_accel
+        t = float(measurements[0].t)
+        lost = np.empty(self.n_pairs, dtype=bool)
+        limit = self._coast_limit
+        if _lose(self.initialised, self._target, target_id, self._last, t, limit, lost):
+            self._drop(lost)
+        self._nis[:] = np.nan
+        self._t = t
+        self._online = np.array([bool(getattr(m, "online", True)) for m in measurements])
+        used = self._advance(z, r, valid)
+        self._last[used] = t
+        x, p = self._state()
+        return Estimate(
+            t=t,
+            x=np.array(x),
+            p=np.array(p),
+            valid=self._reported(),
+            nis=self._nis.copy(),
+            isolated=self._isolated(),
+        )
+
+    def _check(self, measurements, target_id):
+        n, s = self.n_pairs, self.n_sensors
+        if len(measurements) != s:
+            raise InputError(
+                f"expected {s} measurements ({', '.join(self.sensors)}), got {len(measurements)}"
+            )
+        target_id = np.asarray(target_id)
+        if target_id.shape != (n,) or not np.issubdtype(target_id.dtype, np.integer):
+            raise InputError(
+                f"target_id must be an integer array of shape ({n},), got {target_id.shape}"
+            )
+        valid = np.empty((s, n), dtype=bool)
+        z, r = np.empty((s, n, 2)), np.empty((s, n, 2, 2))
+        finite, low, positive = [], [], []
+        for i, m in enumerate(measurements):
+            if np.shape(m.z) != (n, 2) or np.shape(m.r) != (n, 2, 2) or np.shape(m.valid) != (n,):
+                raise InputError(
+                    f"{self._name(i)} must have z (N, 2), r (N, 2, 2), valid (N,) with N = {n}, "
+                    f"got {np.shape(m.z)}, {np.shape(m.r)}, {np.shape(m.valid)}"
+                )
+            ok, lowest, pos = _gather(
+                np.asarray(m.z, dtype=float), np.asarray(m.r, dtype=float),
+                np.asarray(m.valid, dtype=bool), z[i], r[i], valid[i],
+            )  # fmt: skip
+            finite.append(ok)
+            low.append(lowest)
+            positive.append(pos)
+        if not all(finite):
+            raise InputError(
+                f"{self._name(finite.index(False))} has NaN or inf in a valid measurement or its "
+                "covariance"
+            )
+        if min(low) < 0:
+            i = low.index(min(low))
+            raise InputError(
+                f"{self._name(i)} has a negative range ({low[i]:g} m); ranges must be >= 0"
+            )
+        if not all(positive):
+            raise InputError(
+                f"{self._name(positive.index(False))} has a non-positive measurement variance; it "
+                "must be > 0"
+            )
+        return z, r, valid, target_id.astype(np.int64, copy=False)
+
+    def _name(self, i: int) -> str:
+        """How an error names measurement ``i``."""
+        return f"measurements[{int(i)}] ({self.sensors[int(i)]})"
+
+    def _initial(self, z, r, valid):
+        """Initial states from the first reporting sensor of each uninitialised pair.
+
+        Returns ``(init (N,), x0 (N, 3), p0 (N, 3, 3), consumed (S, N))``; ``x0`` and ``p0``
+        are ``None`` when no pair starts a track at this step.
+        """
+        init = ~self.initialised & valid.any(axis=0)
+        if not init.any():
+            return init, None, None, np.zeros_like(valid)
+        first = np.argmax(valid, axis=0)
+        cols = np.arange(self.n_pairs)
+        zf, rf = z[first, cols], r[first, cols]
+        x0 = np.zeros((self.n_pairs, STATE_DIM))
+        x0[:, :2] = zf
+        p0 = np.zeros((self.n_pairs, STATE_DIM, STATE_DIM))
+        p0[:, :2, :2] = rf
+        p0[:, 2, 2] = self.config.filter.init_accel_std**2
+        consumed = (np.arange(self.n_sensors)[:, None] == first[None, :]) & init[None, :]
+        return init, x0, p0, consumed
+
+    @staticmethod
+    def _rows(mask: np.ndarray, m: int = 2) -> np.ndarray:
+        return np.repeat(mask[:, None], m, axis=1)

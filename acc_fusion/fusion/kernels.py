@@ -1,0 +1,271 @@
+"""The compiled steps of the estimators: gathering the sensors' reports, track loss and
+confirmation, and the federated filter's step (local updates, fusion, information sharing,
+isolation). A set of numba kernels that must stay together: the federated step inlines the
+sharing and dropping kernels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from acc_fusion.core.motion import (
+    MEAS_DIM,
+    STATE_DIM,
+)
+from acc_fusion.filters.kalman import (
+    assign_one,
+    fuse_one,
+    nis_one,
+    predict_one,
+    update_one,
+)
+from acc_fusion.fusion.fdi import reset_one, window_one
+
+
+@njit(cache=True)
+def _gather(z_in, r_in, valid_in, z, r, valid):  # pragma: no cover - compiled
+    """One sensor's valid measurements ``z (N, 2)`` and covariances ``r (N, 2, 2)`` from its
+    ``z_in``, ``r_in`` and ``valid_in (N,)`` (copied to ``valid``), zero and identity where
+    not valid, in one pass; returns whether every value is finite, the lowest range (0
+    without a valid one) and whether every variance is positive."""
+    finite, low, positive = True, 0.0, True
+    for k in range(valid.size):
+        ok = valid_in[k]
+        valid[k] = ok
+        for a in range(2):
+            v = z_in[k, a] if ok else 0.0
+            z[k, a] = v
+            finite &= np.isfinite(v)
+            for b in range(2):
+                w = r_in[k, a, b] if ok else (1.0 if a == b else 0.0)
+                r[k, a, b] = w
+                finite &= np.isfinite(w)
+        low = min(low, z[k, 0])
+        positive &= r[k, 0, 0] > 0 and r[k, 1, 1] > 0
+    return finite, low, positive
+
+
+@njit(cache=True)
+def _lose(initialised, target, target_id, last, t, coast_limit, lost):  # pragma: no cover
+    """The tracks lost at time ``t``: ``lost (N,)`` receives the initialised pairs whose target
+    id changed (``target`` takes ``target_id``, in place) or whose last measurement, at
+    ``last``, is more than ``coast_limit`` old; they are no longer ``initialised``.  Returns
+    whether any was lost."""
+    any_lost = False
+    for k in range(lost.size):
+        lost[k] = initialised[k] and (target_id[k] != target[k] or t - last[k] > coast_limit)
+        target[k] = target_id[k]
+        initialised[k] = initialised[k] and not lost[k]
+        any_lost = any_lost or lost[k]
+    return any_lost
+
+
+@njit(cache=True)
+def _confirmed(
+    needed, seen, online_at, t, coast_limit, x, lo, hi, isolated, initialised, out
+):  # pragma: no cover - compiled
+    """:meth:`FederatedFilter._reported` in one pass: sensor ``s`` of an initialised pair
+    becomes *needed* when it is online (it delivered a frame at ``online_at[s]``, at most
+    ``coast_limit`` before ``t``), not isolated (``isolated (N, S)``) and the estimated gap
+    ``x[k, 0]`` lies in ``[lo[s], hi[s]]``; ``out[k]``: the pair is initialised and every
+    needed sensor has been seen."""
+    n_sensors, n_pairs = needed.shape
+    online = np.empty(n_sensors, dtype=np.bool_)
+    for s in range(n_sensors):
+        online[s] = t - online_at[s] <= coast_limit
+    for k in range(n_pairs):
+        gap, ok = x[k, 0], initialised[k]
+        confirmed = ok
+        for s in range(n_sensors):
+            if online[s] and gap >= lo[s] and gap <= hi[s] and not isolated[k, s] and ok:
+                needed[s, k] = True
+            confirmed &= seen[s, k] or not needed[s, k]
+        out[k] = confirmed
+
+
+#: Stand-ins for a federated filter without fault detection: its (empty) window arrays and
+#: thresholds.
+_NO_FDI = (
+    np.zeros((0, 0, 0)), np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64),
+    np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=bool),
+    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=np.int64),
+)  # fmt: skip
+
+
+_NO_TESTS = (0.0, 0.0, 0.0, 0)
+
+
+@njit(cache=True)
+def _federated_step(
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
+    needed, has_fdi, buf, total, count, pos, isolated, verdict, gate, clip, threshold,
+    common_steps, age, inflate, feedback, increments, trace, fuse_now, accel_var, t,
+    coast_limit, nis, used,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:meth:`FederatedFilter._advance` of every pair, in place, pair by pair.
+
+    Master ``xm (N, n)``, ``pm (N, n, n)`` and locals ``xl (S, N, n)``, ``pl (S, N, n, n)``;
+    measurements ``z (S, N, m)``, ``r (S, N, m, m)``, ``valid (S, N)``; track state
+    ``initialised (N,)``, ``reported_at``, ``beta``, ``seen``, ``needed (S, N)``; the fault
+    detector's windows (``has_fdi``; arrays of :class:`~acc_fusion.fusion.fdi.WindowedChiSquare`).
+    Writes the NIS against the master's prior ``nis (N, S)`` and the pairs that used a
+    measurement ``used (N,)``.  The first pass runs each pair's predict, initialisation,
+    fault tests, local updates and fusion with feedback; the second, once the whole step's
+    rejoining sensors are known, the re-sharing they cause (of every pair, as the reference
+    does), the bookkeeping and the loss of tracks whose every sensor is isolated or silent.
+    """
+    n_s, n_pairs = valid.shape
+    n, m = STATE_DIM, MEAS_DIM
+    xt, fp, x0, p0 = np.empty(n), np.empty((n, n)), np.empty(n), np.empty((n, n))
+    pht, kg, y = np.empty((n, m)), np.empty((n, m)), np.empty(m)
+    s_mat, si, work_m = np.empty((m, m)), np.empty((m, m)), np.empty((m, m))
+    info, vec, yi, ym, work = (
+        np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    )  # fmt: skip
+    xf, pf, w = np.empty(n), np.empty((n, n)), np.empty(n_s)
+    reporting = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    consumed = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    accepted = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    rejoined = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    active = np.zeros((n_s, n_pairs), dtype=np.bool_)
+    any_rejoined = False
+    for k in range(n_pairs):
+        uk = u[k % u.size]
+        if initialised[k]:
+            predict_one(xm[k], pm[k], f, q, 1.0, b, uk, xt, fp)
+            for s in range(n_s):
+                scale = _inflation_one(beta[s, k], inflate)
+                predict_one(xl[s, k], pl[s, k], f, q, scale, b, uk, xt, fp)
+        else:  # a new track from the first reporting sensor
+            first = -1
+            for s in range(n_s):
+                if valid[s, k]:
+                    first = s
+                    break
+            if first >= 0:
+                _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos,
+                          isolated, verdict)  # fmt: skip
+                p0[:] = 0.0
+                for i in range(m):
+                    x0[i] = z[first, k, i]
+                    for j in range(m):
+                        p0[i, j] = r[first, k, i, j]
+                x0[n - 1] = 0.0
+                p0[n - 1, n - 1] = accel_var
+                assign_one(xm[k], pm[k], x0, p0, 1.0)
+                for s in range(n_s):
+                    assign_one(xl[s, k], pl[s, k], x0, p0, _inflation_one(beta[s, k], inflate))
+                initialised[k] = True
+                consumed[k, first] = True
+        ini = initialised[k]
+        for s in range(n_s):
+            reporting[k, s] = ini and valid[s, k] and not consumed[k, s]
+            if reporting[k, s]:
+                nis[k, s] = nis_one(xm[k], pm[k], h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
+            else:
+                nis[k, s] = np.nan
+        if has_fdi:
+            window_one(k, nis, reporting, gate, clip, threshold, common_steps, buf, total,
+                       count, pos, isolated, verdict, age, accepted, rejoined)  # fmt: skip
+        else:
+            accepted[k] = reporting[k]
+        for s in range(n_s):
+            if accepted[k, s]:
+                update_one(xl[s, k], pl[s, k], h, z[s, k], r[s, k], m, pht, kg, s_mat, si,
+                           work_m, y)  # fmt: skip
+            active[s, k] = ini and not (has_fdi and isolated[k, s])
+            any_rejoined = any_rejoined or rejoined[k, s]
+        if fuse_now and ini:
+            fuse_one(xl, pl, active, k, xm[k], pm[k], increments, xf, pf, info, vec, yi, ym,
+                     work)  # fmt: skip
+            assign_one(xm[k], pm[k], xf, pf, 1.0)
+            if feedback:
+                _share_one(k, active, pl, beta, beta0, trace, w)
+                for s in range(n_s):
+                    if active[s, k]:
+                        assign_one(xl[s, k], pl[s, k], xf, pf, _inflation_one(beta[s, k], inflate))
+    for k in range(n_pairs):
+        ini = initialised[k]
+        if any_rejoined:
+            _share_one(k, active, pl, beta, beta0, trace, w)
+            for s in range(n_s):
+                if rejoined[k, s] and ini:
+                    assign_one(
+                        xl[s, k], pl[s, k], xm[k], pm[k], _inflation_one(beta[s, k], inflate)
+                    )
+        any_isolated, all_out, took_any = False, True, False
+        for s in range(n_s):
+            took = accepted[k, s] or consumed[k, s]
+            seen[s, k] = seen[s, k] or took
+            took_any = took_any or took
+            if reporting[k, s] or consumed[k, s]:
+                reported_at[s, k] = t
+            iso = has_fdi and isolated[k, s]
+            any_isolated = any_isolated or iso
+            all_out = all_out and (iso or t - reported_at[s, k] > coast_limit)
+        used[k] = took_any
+        if ini and any_isolated and all_out:  # every recently reporting sensor is isolated
+            initialised[k] = False
+            _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
+                      verdict)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _inflation_one(beta, inflate):  # pragma: no cover - compiled
+    """The factor :math:`1/\\beta_i` of a local's prior and process noise (1 without
+    inflation or with :math:`\\beta_i = 0`)."""
+    return 1.0 / beta if inflate and beta > 0 else 1.0
+
+
+@njit(cache=True, inline="always")
+def _share_one(k, active, pl, beta, beta0, trace, w):  # pragma: no cover - compiled
+    """Recompute pair ``k``'s :math:`\\beta` over its active locals (sum 1; unchanged
+    without one): :math:`\\beta_i \\propto 1/\\mathrm{tr}(\\beta_i P_i)` (``trace``) or the
+    initial factors ``beta0`` (``w (S,)``: scratch)."""
+    total = 0.0
+    for s in range(beta.shape[0]):
+        if not active[s, k]:
+            w[s] = 0.0
+        elif trace:
+            b = beta[s, k] if beta[s, k] > 0 else 1.0
+            w[s] = 1.0 / ((pl[s, k, 0, 0] + pl[s, k, 1, 1] + pl[s, k, 2, 2]) * b)
+        else:
+            w[s] = beta0[s]
+        total += w[s]
+    if total > 0:
+        for s in range(beta.shape[0]):
+            beta[s, k] = w[s] / total
+
+
+@njit(cache=True)
+def _share_pairs(active, pl, beta, beta0, trace):  # pragma: no cover - compiled
+    """:func:`_share_one` of every pair."""
+    w = np.empty(beta.shape[0])
+    for k in range(beta.shape[1]):
+        _share_one(k, active, pl, beta, beta0, trace, w)
+
+
+@njit(cache=True, inline="always")
+def _drop_one(
+    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict
+):  # pragma: no cover - compiled
+    """Forget pair ``k``'s track state: initial sharing factors, no sensor seen or needed,
+    fresh fault-detection windows."""
+    for s in range(beta.shape[0]):
+        beta[s, k] = beta0[s]
+        seen[s, k] = False
+        needed[s, k] = False
+    if has_fdi:
+        reset_one(k, buf, total, count, pos, isolated, verdict)
+
+
+@njit(cache=True)
+def _drop_pairs(
+    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict
+):  # pragma: no cover - compiled
+    """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
+    for k in range(pairs.size):
+        if pairs[k]:
+            _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
+                      verdict)  # fmt: skip

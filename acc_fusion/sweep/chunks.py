@@ -1,0 +1,57 @@
+"""One chunk of a sweep run as one batched simulation (a SUMO chunk: one SUMO run), returning
+its rows (:func:`run_chunk`); what executors call in their worker processes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acc_fusion.core.config import from_mapping
+from acc_fusion.core.errors import AccFusionError
+from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.studies.traffic import _run
+from acc_fusion.sweep.columns import COUNT_COLUMNS, ID_COLUMNS, SUM_COLUMNS
+from acc_fusion.sweep.points import Chunk, _sumo_config
+
+
+def run_chunk(chunk: Chunk) -> dict[str, list]:
+    """Simulate ``chunk`` and return its rows as columns (one row per run and method)."""
+
+    point = chunk.point
+    sim = from_mapping(SimConfig, {**point.sim, "runs": chunk.n_runs, "seed": chunk.sim_seed})
+    if point.source == "sumo":
+        run = _run(_sumo_config(point.sumo, chunk.sim_seed), sim, False, False)
+        if run.error:
+            raise AccFusionError(f"SUMO failed in chunk {chunk.id}: {run.error}")
+        steps = run.steps
+        per_run = {m: _summary_counts(s) for m, s in run.summaries.items()}
+    else:
+        result = simulate(sim)
+        steps = result.steps
+        per_run = {m: s.per_pair for m, s in result.summaries.items()}
+    cols: dict[str, list] = {c: [] for c in (*ID_COLUMNS, *point.columns, "fault", "method")}
+    for c in (*COUNT_COLUMNS, *SUM_COLUMNS, "steps"):
+        cols[c] = []
+    for i in range(chunk.n_runs):
+        run_index = chunk.first + i
+        for method, figures in per_run.items():
+            cols["run_id"].append(f"{point.id}-s{chunk.seed}-r{run_index:07d}")
+            cols["point_id"].append(point.id)
+            cols["chunk_id"].append(chunk.id)
+            cols["seed"].append(chunk.seed)
+            cols["run"].append(run_index)
+            for key, value in point.columns.items():
+                cols[key].append(value)
+            cols["fault"].append(point.fault)
+            cols["method"].append(method)
+            for c in (*COUNT_COLUMNS, *SUM_COLUMNS):
+                cols[c].append(figures[c][i].item())
+            cols["steps"].append(steps)
+    return cols
+
+
+def _summary_counts(s) -> dict[str, np.ndarray]:
+    """The per-run figures of a one-run :class:`~acc_fusion.metrics.events.FCWSummary` (a SUMO run:
+    all its vehicles together)."""
+    lead = s.lead_time.mean * s.lead_time.finite if s.lead_time.finite else 0.0
+    figures = {c: getattr(s, c) for c in (*COUNT_COLUMNS, "hours", "km")}
+    return {k: np.array([v]) for k, v in {**figures, "lead_time_sum_s": lead}.items()}

@@ -1,0 +1,14 @@
+"""The columns of a sweep's rows: identifiers, event counts and summed exposure."""
+
+from __future__ import annotations
+
+#: Event counts of a row (see :meth:`acc_fusion.metrics.events.FCWMetrics.per_pair`).
+COUNT_COLUMNS = ("warnings", "false_alarms", "threats", "detected", "missed", "collisions")
+
+
+#: Exposure and lead-time columns of a row.
+SUM_COLUMNS = ("hours", "km", "lead_time_sum_s")
+
+
+#: Columns of every row before the axes' columns.
+ID_COLUMNS = ("run_id", "point_id", "chunk_id", "seed", "run")
