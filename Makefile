@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: run test test-fast lint format bench clean
+.PHONY: run test test-fast lint format bench docs clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -20,22 +20,28 @@ run: $(STAMP)
 	$(BIN)/acc-fusion sumo --net motorway --end 300
 
 test: $(STAMP)
-	$(BIN)/ruff check acc_fusion scripts tests
-	$(BIN)/ruff format --check acc_fusion scripts tests
+	$(BIN)/ruff check acc_fusion scripts tests examples docs/gen
+	$(BIN)/ruff format --check acc_fusion scripts tests examples docs/gen
+	$(BIN)/lint-imports
+	DISABLE_MKDOCS_2_WARNING=true $(BIN)/mkdocs build --strict --quiet
 	$(BIN)/pytest -q
 
 test-fast: $(STAMP)
 	$(BIN)/pytest -q -m "not slow"
 
 lint: $(STAMP)
-	$(BIN)/ruff check acc_fusion scripts tests
+	$(BIN)/ruff check acc_fusion scripts tests examples docs/gen
+	$(BIN)/lint-imports
 
 format: $(STAMP)
-	$(BIN)/ruff format acc_fusion scripts tests
-	$(BIN)/ruff check --fix acc_fusion scripts tests
+	$(BIN)/ruff format acc_fusion scripts tests examples docs/gen
+	$(BIN)/ruff check --fix acc_fusion scripts tests examples docs/gen
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_filters.py --quick
 
+docs: $(STAMP)
+	DISABLE_MKDOCS_2_WARNING=true $(BIN)/mkdocs serve
+
 clean:
-	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache
+	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache site

@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     # Here, not at the top: the worker processes import this script, and the traffic module
     # brings the whole pipeline with it (a second or more per worker).
-    from acc_fusion.studies.traffic import bundled_nets
+    from acc_fusion.truth.sumo.nets import bundled_nets
 
     nets = bundled_nets()
     if args.net not in nets:

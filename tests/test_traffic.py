@@ -10,7 +10,7 @@ pytest.importorskip("libsumo")
 
 from acc_fusion.cli.main import main  # noqa: E402
 from acc_fusion.core.errors import ConfigError  # noqa: E402
-from acc_fusion.studies.traffic import bundled_nets, resolve_sumocfg  # noqa: E402
+from acc_fusion.truth.sumo.nets import bundled_nets, resolve_sumocfg
 
 
 def test_bundled_networks_are_installed_package_data():

@@ -11,7 +11,8 @@ from acc_fusion.cli.common import (
     write_study,
 )
 from acc_fusion.core.outputs import output_dir
-from acc_fusion.studies.traffic import resolve_sumocfg, sumo_study
+from acc_fusion.studies.traffic import sumo_study
+from acc_fusion.truth.sumo.nets import resolve_sumocfg
 from acc_fusion.truth.sumo.source import SumoConfig
 
 

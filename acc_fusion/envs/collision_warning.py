@@ -20,11 +20,11 @@ from acc_fusion.core.plots import warning_frame
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import Perception, SimConfig
-from acc_fusion.studies.traffic import resolve_sumocfg
 from acc_fusion.truth.driver import Driver
 from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.highway.source import HighwayConfig, HighwaySource, load_highway_env
 from acc_fusion.truth.scripted import SCENARIOS, make_scenario
+from acc_fusion.truth.sumo.nets import resolve_sumocfg
 from acc_fusion.truth.sumo.source import SumoConfig, SumoError, SumoSource, check_sumocfg
 from acc_fusion.warning.safety import safety_distances
 

@@ -1,5 +1,5 @@
-"""Settings of the fusion center and its local filters (:class:`FusionConfig`, :class:`FilterConfig`)
-and the names of the methods, reset modes and information-sharing rules.
+"""Settings of the fusion center and its local filters (:class:`FusionConfig`,
+:class:`FilterConfig`) and the names of the methods, reset modes and information-sharing rules.
 """
 
 from __future__ import annotations

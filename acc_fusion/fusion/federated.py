@@ -26,7 +26,8 @@ from acc_fusion.fusion.kernels import (
 
 
 class FederatedFilter(Estimator):
-    """Carlson's federated Kalman filter (see the module docstring); ``plain`` = no sharing."""
+    """Carlson's federated Kalman filter (the equations: :mod:`acc_fusion.fusion.estimators`);
+    ``plain`` = no sharing."""
 
     _PAIR_AXES = {
         **Estimator._PAIR_AXES, "beta": 1, "_seen": 1, "_needed": 1, "_reported_at": 1

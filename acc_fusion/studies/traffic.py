@@ -13,45 +13,15 @@ from __future__ import annotations
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
-from importlib.resources import as_file, files
 from pathlib import Path
 
 import numpy as np
 
-from acc_fusion.core.errors import ConfigError
 from acc_fusion.metrics.events import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.studies.compare import on_off_table
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.source import SumoError, SumoSource
-
-
-def bundled_nets() -> dict[str, Path]:
-    """The networks shipped in ``sumo_nets/``: name -> path of its ``.sumocfg``."""
-    root = files("acc_fusion.sumo_nets")
-    nets = {}
-    for entry in root.iterdir():
-        if entry.is_dir():
-            for cfg in entry.iterdir():
-                if cfg.name.endswith(".sumocfg"):
-                    with as_file(cfg) as path:
-                        nets[entry.name] = Path(path)
-    return dict(sorted(nets.items()))
-
-
-def resolve_sumocfg(net: str | None = None, sumocfg: str | None = None) -> Path:
-    """The ``.sumocfg`` of a bundled network (``net``) or a user's file (``sumocfg``)."""
-    if (net is None) == (sumocfg is None):
-        raise ConfigError("give exactly one of --net NAME and --sumocfg PATH")
-    if net is not None:
-        nets = bundled_nets()
-        if net not in nets:
-            raise ConfigError(f"unknown network {net!r}; bundled networks: {', '.join(nets)}")
-        return nets[net]
-    path = Path(sumocfg)
-    if not path.is_file():
-        raise ConfigError(f"SUMO config file {str(path)!r} does not exist")
-    return path
 
 
 class _MinTTC:

@@ -19,7 +19,7 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.schema import set_path
 from acc_fusion.core.validation import check_choice
 from acc_fusion.sim.closed_loop import SimConfig
-from acc_fusion.studies.traffic import resolve_sumocfg
+from acc_fusion.truth.sumo.nets import resolve_sumocfg
 from acc_fusion.truth.sumo.source import SumoConfig
 
 if TYPE_CHECKING:
@@ -43,9 +43,9 @@ class Point:
         columns: axis key -> the value as stored in the rows.
         source: ``"scripted"`` or ``"sumo"``.
         sim: the :class:`~acc_fusion.sim.closed_loop.SimConfig` fields (without ``runs`` and
-        ``seed``).
+            ``seed``).
         sumo: the SUMO fields (``net`` or ``sumocfg``,
-        :class:`~acc_fusion.truth.sumo.source.SumoConfig`
+            :class:`~acc_fusion.truth.sumo.source.SumoConfig`
             fields) of a SUMO point, else ``{}``.
         fault: the fault types injected, e.g. ``"radar:bias+infrared:dropout"``, or ``"none"``.
     """

@@ -429,7 +429,7 @@ class BackgroundSumoSource(SlotSource):
 
     Example:
         >>> from acc_fusion.sim.closed_loop import SimConfig, simulate
-        >>> from acc_fusion.studies.traffic import bundled_nets
+        >>> from acc_fusion.truth.sumo.nets import bundled_nets
         >>> with BackgroundSumoSource(SumoConfig(str(bundled_nets()["ring"]), end=5.0)) as src:
         ...     result = simulate(SimConfig(runs=1, dt=src.dt), source=src)
         >>> result.steps
@@ -437,7 +437,7 @@ class BackgroundSumoSource(SlotSource):
 
     Args:
         config: the source's :class:`~acc_fusion.truth.sumo.source.SumoConfig` (``gui`` must be
-        false).
+            false).
 
     Raises:
         ConfigError: ``gui`` is set, or the config is invalid (as ``SumoSource`` raises it).

@@ -1,0 +1,85 @@
+"""Pages generated at build time (mkdocs-gen-files), so they follow the code:
+
+* ``reference/``: one API page per module of ``acc_fusion``, by stage;
+* ``commands/``: one page per ``acc-fusion`` command, its ``--help`` as the parser prints it;
+* ``configuration.md``: every field of the config files, from the same dataclasses as
+  ``acc-fusion config schema``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import mkdocs_gen_files
+
+from acc_fusion.cli.main import COMMANDS, build_parser
+from acc_fusion.core.schema import fields
+from acc_fusion.sim.closed_loop import SimConfig
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = ROOT / "acc_fusion"
+
+# ---------------------------------------------------------------- API reference
+nav = mkdocs_gen_files.Nav()
+for path in sorted(PACKAGE.rglob("*.py")):
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    if "sumo_nets" in parts or any(p.startswith("_") and p != "__init__" for p in parts):
+        continue
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+        doc = Path("reference", *parts, "index.md")
+    else:
+        doc = Path("reference", *parts).with_suffix(".md")
+    nav[parts] = doc.relative_to("reference").as_posix()
+    with mkdocs_gen_files.open(doc, "w") as f:
+        f.write(f"# `{'.'.join(parts)}`\n\n::: {'.'.join(parts)}\n")
+with mkdocs_gen_files.open("reference/SUMMARY.md", "w") as f:
+    f.writelines(nav.build_literate_nav())
+
+# ---------------------------------------------------------------- commands
+parser = build_parser()
+subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+summary = ["* [All commands](index.md)\n"]
+index = ["# Commands\n\n", "| command | what it does |\n|---|---|\n"]
+for command in COMMANDS:
+    name = command.__name__.rsplit(".", 1)[-1]
+    sub = subparsers.choices[name]
+    sub.formatter_class = lambda prog: argparse.HelpFormatter(prog, width=100)
+    intro = (command.__doc__ or "").strip()
+    helps = [sub.format_help()]
+    for action in sub._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                child.formatter_class = sub.formatter_class
+                helps.append(child.format_help())
+    blocks = "\n".join(f"```text\n{h}```\n" for h in helps)
+    with mkdocs_gen_files.open(f"commands/{name}.md", "w") as f:
+        f.write(f"# `acc-fusion {name}`\n\n{intro}\n\n## Usage\n\n{blocks}")
+    summary.append(f"* [{name}]({name}.md)\n")
+    help_line = next(a.help for a in subparsers._choices_actions if a.dest == name)
+    index.append(f"| [`{name}`]({name}.md) | {help_line} |\n")
+index.append(
+    "\nEvery command has `--help`. A user's mistake ends with one line `acc-fusion: error: …` "
+    "and exit code 2, never a traceback, and nothing is written.\n"
+)
+with mkdocs_gen_files.open("commands/index.md", "w") as f:
+    f.writelines(index)
+with mkdocs_gen_files.open("commands/SUMMARY.md", "w") as f:
+    f.writelines(summary)
+
+# ---------------------------------------------------------------- configuration reference
+rows = []
+for fi in fields(SimConfig):
+    default = (
+        json.dumps(fi.default, default=str)
+        if not hasattr(fi.default, "__dataclass_fields__")
+        else "(table)"
+    )
+    doc = " ".join(fi.doc.split()).replace("|", "\\|")
+    rows.append(f"| `{fi.path}` | `{default}` | {fi.unit} | {doc} |\n")
+with mkdocs_gen_files.open("configuration.md", "w") as f:
+    f.write((ROOT / "docs" / "gen" / "configuration_intro.md").read_text())
+    f.write("\n| key | default | unit | meaning |\n|---|---|---|---|\n")
+    f.writelines(rows)

@@ -1,0 +1,100 @@
+"""A griffe extension: the reST of acc_fusion's docstrings rendered as Markdown on the docs site.
+
+The docstrings are written for readers of the source (Google style with reST roles, as filterpy
+and Stone Soup do): ``:math:`x``` and ``.. math::`` blocks become MathJax maths (arithmatex),
+``:class:`~a.b.C``` and the other cross-reference roles become code spans with the short name,
+``literal`` double back-quotes become single ones.
+"""
+
+from __future__ import annotations
+
+import re
+
+import griffe
+
+_MATH = re.compile(r":math:`([^`]+)`")
+_LITERAL = re.compile(r"``([^`]+)``")
+
+
+def _short(target: str, tilde: bool) -> str:
+    return target.rsplit(".", 1)[-1] if tilde else target
+
+
+def _math_blocks(text: str) -> str:
+    out, lines, i = [], text.split("\n"), 0
+    while i < len(lines):
+        line = lines[i]
+        m = re.match(r"^(\s*)\.\. math::\s*(.*)$", line)
+        if not m:
+            out.append(line)
+            i += 1
+            continue
+        indent, body = m.group(1), [m.group(2)] if m.group(2).strip() else []
+        i += 1
+        while i < len(lines) and (not lines[i].strip() or lines[i].startswith(indent + " ")):
+            body.append(lines[i].strip())
+            i += 1
+        maths = " \\\\ ".join(b for b in body if b)
+        out += [f"{indent}\\[ {maths} \\]", ""]
+    return "\n".join(out)
+
+
+def _doctests(text: str) -> str:
+    """Fence doctest examples (``>>>`` lines and their output) as ``pycon`` code blocks."""
+    out, lines, i = [], text.split("\n"), 0
+    while i < len(lines):
+        m = re.match(r"^(\s*)>>> ", lines[i])
+        if not m:
+            out.append(lines[i])
+            i += 1
+            continue
+        indent, block = m.group(1), []
+        while i < len(lines) and lines[i].strip():
+            block.append(lines[i][len(indent) :])
+            i += 1
+        out += [f"{indent}```pycon", *(indent + b for b in block), f"{indent}```"]
+    return "\n".join(out)
+
+
+def _flatten_definitions(text: str) -> str:
+    """reST definition lists (a term, then its body indented) as a bold term and a paragraph;
+    Markdown would read the indented body as code."""
+    lines, out = text.split("\n"), []
+    for k, line in enumerate(lines):
+        nxt = lines[k + 1] if k + 1 < len(lines) else ""
+        if line.startswith("    "):
+            body = line.lstrip()
+            out.append(("\n" if body.startswith(("* ", "- ")) and out and out[-1] else "") + body)
+        elif line.strip() and not line.startswith(" ") and nxt.startswith("    "):
+            out += ["", f"**{line.strip()}**", ""]
+        else:
+            out.append(line)
+    return "\n".join(out)
+
+
+def render(text: str, module: bool = False) -> str:
+    """The Markdown form of a docstring written with reST roles (``module``: a module's
+    docstring, whose indented blocks are reST definition lists)."""
+    parts = re.split(r"(^\s*```.*?^\s*```)", _doctests(text), flags=re.S | re.M)
+    return "".join(
+        p if i % 2 else _inline(_math_blocks(_flatten_definitions(p) if module else p))
+        for i, p in enumerate(parts)
+    )
+
+
+def _inline(text: str) -> str:
+    text = _MATH.sub(lambda m: f"\\({m.group(1)}\\)", text)
+    text = re.sub(
+        r":(?:class|func|meth|mod|attr|data|exc|obj|const):`(~?)([^`]+)`",
+        lambda m: f"`{_short(m.group(2), bool(m.group(1)))}`",
+        text,
+    )
+    return _LITERAL.sub(lambda m: f"`{m.group(1)}`", text)
+
+
+class RstRoles(griffe.Extension):
+    """Rewrite every docstring once it is loaded."""
+
+    def on_instance(self, *, obj: griffe.Object, **kwargs) -> None:
+        if obj.docstring is not None:
+            obj.docstring.value = render(obj.docstring.value, module=obj.is_module)
