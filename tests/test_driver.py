@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.units import G
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import TruthFrame
-from acc_fusion.truth.scripted import G, make_scenario
+from acc_fusion.truth.scripted import make_scenario
 
 DT = 0.05
 

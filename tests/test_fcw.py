@@ -54,7 +54,7 @@ def test_conformance_passes_every_manoeuvre_with_default_settings():
 
 def test_a_late_warning_fails_conformance():
     from acc_fusion.warning.logic import WarningConfig
-    from acc_fusion.warning.safety import StoppingDistanceParams
+    from acc_fusion.warning.safety_params import StoppingDistanceParams
 
     late = WarningConfig(
         params=StoppingDistanceParams(

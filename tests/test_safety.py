@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.warning.safety import (
-    SAFETY_MODELS,
+from acc_fusion.warning.safety import SAFETY_MODELS, safety_distances
+from acc_fusion.warning.safety_params import (
     BerkeleyParams,
     HondaParams,
     MazdaParams,
@@ -16,9 +16,8 @@ from acc_fusion.warning.safety import (
     StoppingDistanceParams,
     TimeHeadwayParams,
     TTCParams,
-    safety_distances,
-    time_to_collision,
 )
+from acc_fusion.warning.ttc import time_to_collision
 
 # The reference state of the hand computations: ego at 20 m/s closing at 5 m/s on a lead
 # at 15 m/s that brakes at 2 m/s² (v = 20, v_l = 15, v_c = 5, b = 2).

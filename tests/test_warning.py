@@ -9,7 +9,7 @@ from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.levels import CAUTION, IMMINENT, LEVEL_NAMES, NONE
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
-from acc_fusion.warning.safety import MazdaParams, TTCParams
+from acc_fusion.warning.safety_params import MazdaParams, TTCParams
 
 # TTC model closing at 10 m/s: d_caution = 2.0 s * 10 = 20 m, d_imminent = 1.0 s * 10 = 10 m.
 TTC = TTCParams(ttc_caution=2.0, ttc_imminent=1.0)

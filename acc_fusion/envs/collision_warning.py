@@ -23,7 +23,8 @@ from acc_fusion.sim.closed_loop import Perception, SimConfig
 from acc_fusion.truth.driver import Driver
 from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.highway.source import HighwayConfig, HighwaySource, load_highway_env
-from acc_fusion.truth.scripted import SCENARIOS, make_scenario
+from acc_fusion.truth.manoeuvres import SCENARIOS
+from acc_fusion.truth.scripted import make_scenario
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 from acc_fusion.truth.sumo.source import SumoConfig, SumoError, SumoSource, check_sumocfg
 from acc_fusion.warning.safety import safety_distances
@@ -343,7 +344,7 @@ class CollisionWarningEnv(gym.Env):
     ## Arguments
 
     ``source`` (``"scripted"``, ``"sumo"`` or ``"highway"``),
-    ``scenario`` (a name of :data:`acc_fusion.truth.scripted.SCENARIOS`; scripted source only),
+    ``scenario`` (a name of :data:`acc_fusion.truth.manoeuvres.SCENARIOS`; scripted source only),
     ``config`` (:class:`acc_fusion.sim.closed_loop.SimConfig`: sensors, fusion, warning model,
     driver, and
     the step ``dt``, which SUMO then runs at; highway-env sets its own), ``reward``

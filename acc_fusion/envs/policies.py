@@ -55,7 +55,8 @@ from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.envs.collision_warning import OBS_FIELDS
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
-from acc_fusion.warning.safety import SAFETY_MODELS, safety_distances, time_to_collision
+from acc_fusion.warning.safety import SAFETY_MODELS, safety_distances
+from acc_fusion.warning.ttc import time_to_collision
 
 _INDEX = {name: i for i, name in enumerate(OBS_FIELDS)}
 
@@ -167,7 +168,8 @@ class RSSPolicy(SafetyDistancePolicy):
     """The papers' rule with the RSS safe longitudinal distance (Shalev-Shwartz et al. 2017).
 
     Args:
-        params: :class:`acc_fusion.warning.safety.RSSParams` or ``None`` for Intel's defaults.
+        params: :class:`~acc_fusion.warning.safety_params.RSSParams` or ``None`` for Intel's
+            defaults.
     """
 
     def __init__(self, params: object | None = None) -> None:
@@ -179,7 +181,7 @@ class TTCPolicy(Policy):
     r"""Time-to-collision thresholds on the fused track.
 
     :math:`\mathrm{TTC} = \hat g / (-\dot{\hat g})` while closing (constant range-rate, as
-    the test protocols define it; :func:`acc_fusion.warning.safety.time_to_collision`), ``inf``
+    the test protocols define it; :func:`acc_fusion.warning.ttc.time_to_collision`), ``inf``
     otherwise.  Imminent when :math:`\mathrm{TTC} < T_I`, caution when :math:`< T_C`.
 
     Args:

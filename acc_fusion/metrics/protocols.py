@@ -73,7 +73,7 @@ class Requirement:
 
     Attributes:
         protocol: the protocol (and version) it comes from.
-        scenario: the manoeuvre's name in :data:`acc_fusion.truth.scripted.SCENARIOS`.
+        scenario: the manoeuvre's name in :data:`acc_fusion.truth.manoeuvres.SCENARIOS`.
         test: the protocol's name of the test.
         required_ttc: the warning onset must come at a TTC of at least this [s].
         n_trials: number of valid trials the protocol runs.

@@ -67,12 +67,10 @@ from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEAS_DIM
 from acc_fusion.core.slots import PairState, pair_mask
+from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_interval, check_range
 from acc_fusion.sensors.faults import Fault, Report, apply_faults
 from acc_fusion.truth.frame import TruthFrame
-
-#: Tolerance [s] when comparing a frame time with a sample time.
-TIME_TOL = 1e-9
 
 # Bounds of the SensorSpec fields, as keyword arguments of ``check_range``.
 _FINITE = {"hi": math.inf, "hi_open": True}

@@ -36,9 +36,11 @@ from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import SlotSource, TruthFrame
-from acc_fusion.truth.scripted import SCENARIOS, make_scenario
+from acc_fusion.truth.manoeuvres import SCENARIOS
+from acc_fusion.truth.scripted import make_scenario
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
-from acc_fusion.warning.safety import safety_distances, time_to_collision
+from acc_fusion.warning.safety import safety_distances
+from acc_fusion.warning.ttc import time_to_collision
 
 #: The methods compared by default: each sensor alone, centralized and federated fusion.
 DEFAULT_METHODS = ("radar", "infrared", "centralized", "federated")
@@ -52,7 +54,7 @@ class SimConfig:
     """Everything a simulation needs: one typed schema for config files and CLI flags.
 
     Attributes:
-        scenario: a name of :data:`acc_fusion.truth.scripted.SCENARIOS` (``"random"``: the
+        scenario: a name of :data:`acc_fusion.truth.manoeuvres.SCENARIOS` (``"random"``: the
             randomised Monte Carlo suite).
         runs: number of runs (batched).
         seed: seed of truth, sensor noise and driver draws.

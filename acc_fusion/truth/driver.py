@@ -59,9 +59,9 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState
+from acc_fusion.core.units import TIME_TOL, G
 from acc_fusion.core.validation import check_array, check_choice, check_interval, check_range
 from acc_fusion.truth.frame import TruthFrame
-from acc_fusion.truth.scripted import TIME_TOL, G
 
 #: The release rules of :class:`DriverConfig`.
 RELEASE_RULES = ("not_closing", "warning_ended", "stopped")

@@ -44,7 +44,8 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_choice, check_range
-from acc_fusion.warning.safety import SAFETY_MODELS, distances_unchecked, model_constants
+from acc_fusion.warning.safety import SAFETY_MODELS, model_constants
+from acc_fusion.warning.safety_kernels import distances_unchecked
 
 
 @dataclass(frozen=True)
@@ -55,8 +56,8 @@ class WarningConfig:
         model: safety-distance model, a name of :data:`acc_fusion.warning.safety.SAFETY_MODELS`
             (default ``"stopping_distance"``).
         params: that model's parameter dataclass (e.g.
-            :class:`~acc_fusion.warning.safety.MazdaParams`), a mapping of its fields (from TOML or
-            YAML), or ``None`` for its defaults.
+            :class:`~acc_fusion.warning.safety_params.MazdaParams`), a mapping of its fields (from
+            TOML or YAML), or ``None`` for its defaults.
         hysteresis: a level is lowered only once the gap exceeds :math:`d(1 + h)` [fraction]
             (default 0.1).
         min_on_time: a raised level is held at least this long [s] (default 0.5).

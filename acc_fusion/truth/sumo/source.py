@@ -138,6 +138,7 @@ from numba import njit
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.levels import WARNING_COLORS
+from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.sumo.native import sumo_reader
@@ -152,8 +153,6 @@ SPEED_MODE_MAX_DECEL = 0b100
 UNBOUNDED_END = 86400.0
 #: Steps between two checks for vehicles that left without an event (bounded memory).
 SWEEP_STEPS = 1000
-#: Tolerance on simulated times [s].
-TIME_TOL = 1e-9
 
 
 class SumoError(AccFusionError, RuntimeError):
