@@ -31,7 +31,8 @@ import numpy as np
 from acc_fusion.core.table import Table
 from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
-from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
+from acc_fusion.sensors.sensor import Measurement
+from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source
 

@@ -7,7 +7,7 @@ import pytest
 
 from acc_fusion.fusion.config import FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
-from acc_fusion.sensors.sensor import infrared_spec, radar_spec
+from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.estimation import run_estimation
 from acc_fusion.truth.frame import LinearGaussianSource

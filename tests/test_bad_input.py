@@ -11,7 +11,8 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.fusion.config import FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.fdi import FDIConfig
-from acc_fusion.sensors.sensor import Measurement, radar_spec
+from acc_fusion.sensors.sensor import Measurement
+from acc_fusion.sensors.spec import radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.truth.frame import TruthFrame
 

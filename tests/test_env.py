@@ -9,7 +9,8 @@ gym = pytest.importorskip("gymnasium")
 
 import acc_fusion  # noqa: E402,F401  (registers the environment)
 from acc_fusion.core.errors import ConfigError  # noqa: E402
-from acc_fusion.envs.collision_warning import OBS_FIELDS, CollisionWarningEnv  # noqa: E402
+from acc_fusion.envs.collision_warning import CollisionWarningEnv  # noqa: E402
+from acc_fusion.envs.observation import OBS_FIELDS  # noqa: E402
 
 
 def test_gymnasium_env_checker_passes():

@@ -11,13 +11,8 @@ import pytest
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.sensors.faults import FAULT_KINDS, Fault
-from acc_fusion.sensors.sensor import (
-    InfraredSensor,
-    RadarSensor,
-    Sensor,
-    infrared_spec,
-    radar_spec,
-)
+from acc_fusion.sensors.sensor import InfraredSensor, RadarSensor, Sensor
+from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.truth.frame import TruthFrame
 
 DT = 0.05
@@ -449,7 +444,7 @@ def test_measure_is_vectorised_over_pairs():
 
 @pytest.mark.parametrize("lateral", [False, True])
 def test_one_pass_kernel_equals_observe_then_emit(lateral):
-    from acc_fusion.sensors.sensor import _emit, _observe, _observe_emit
+    from acc_fusion.sensors.kernels import _emit, _observe, _observe_emit
 
     rng = np.random.default_rng(1)
     n = 300

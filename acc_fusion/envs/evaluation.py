@@ -285,8 +285,8 @@ def evaluate(
         config, reward, max_episode_steps, sumo, highway: passed to the environment
             (:class:`~acc_fusion.sim.closed_loop.SimConfig`,
             :class:`~acc_fusion.envs.collision_warning.
-            RewardConfig`, step limit, :class:`~acc_fusion.envs.collision_warning.SumoOptions`
-            of the ``sumo`` source, :class:`~acc_fusion.envs.collision_warning.HighwayOptions`
+            RewardConfig`, step limit, :class:`~acc_fusion.envs.options.SumoOptions`
+            of the ``sumo`` source, :class:`~acc_fusion.envs.options.HighwayOptions`
             of the ``highway`` source).
         env: an environment to run in instead of a new one (``source``, ``scenario``,
             ``config``, ``reward``, ``max_episode_steps``, ``sumo`` and ``highway`` are then

@@ -2,7 +2,7 @@ r"""Baseline warning policies for the collision-warning environment.
 
 A *policy* maps what the fusion center knows (an observation of
 :class:`acc_fusion.envs.collision_warning.CollisionWarningEnv`, the entries named by
-:data:`~acc_fusion.envs.collision_warning.OBS_FIELDS`) to a warning level: 0 none, 1 caution,
+:data:`~acc_fusion.envs.observation.OBS_FIELDS`) to a warning level: 0 none, 1 caution,
 2 imminent (:data:`~acc_fusion.core.levels.NONE`, :data:`~acc_fusion.core.levels.CAUTION`,
 :data:`~acc_fusion.core.levels.IMMINENT`).  Every baseline here is a small class with
 
@@ -36,7 +36,7 @@ safety distances :math:`(d_C, d_I) = ` :func:`acc_fusion.warning.safety.safety_d
 ego-motion filter.  :data:`BASELINES` holds one ready instance of each.
 
 >>> import numpy as np
->>> from acc_fusion.envs.collision_warning import OBS_FIELDS
+>>> from acc_fusion.envs.observation import OBS_FIELDS
 >>> obs = np.zeros(len(OBS_FIELDS), dtype=np.float32)
 >>> obs[[OBS_FIELDS.index(f) for f in ("gap", "range_rate", "ego_speed", "track_valid")]] = (
 ...     10.0, -10.0, 20.0, 1.0)
@@ -53,7 +53,7 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.validation import check_choice, check_range
-from acc_fusion.envs.collision_warning import OBS_FIELDS
+from acc_fusion.envs.observation import OBS_FIELDS
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
 from acc_fusion.warning.safety import SAFETY_MODELS, safety_distances
 from acc_fusion.warning.ttc import time_to_collision

@@ -71,7 +71,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 import acc_fusion  # noqa: F401  (registers the environment)
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.envs.collision_warning import OBS_FIELDS
+from acc_fusion.envs.observation import OBS_FIELDS
 
 ENV_ID = "acc_fusion/CollisionWarning-v0"
 

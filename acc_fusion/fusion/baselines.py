@@ -16,7 +16,7 @@ from acc_fusion.core.motion import (
 )
 from acc_fusion.filters.steady_state import periodic_steady_state
 from acc_fusion.fusion.base import Estimator
-from acc_fusion.sensors.sensor import SensorSpec
+from acc_fusion.sensors.spec import SensorSpec
 
 
 class _OneFilter(Estimator):

@@ -70,7 +70,7 @@ class FusionConfig:
         filter: the local-filter model.
         local: ``"full"`` Kalman filter, or ``"steady"``: the constant-gain filter of the
             algebraic Riccati equation (single-sensor methods only; needs the sensor's
-            :class:`~acc_fusion.sensors.sensor.SensorSpec` for its rate and noise).
+            :class:`~acc_fusion.sensors.spec.SensorSpec` for its rate and noise).
         steady_range: range [m] at which a range-dependent noise is evaluated for the
             constant gain (default 40 m).
     """

@@ -56,7 +56,7 @@ from acc_fusion.fusion.base import Estimator
 from acc_fusion.fusion.baselines import CentralizedFilter, SingleSensorFilter, SteadyStateFilter
 from acc_fusion.fusion.config import FUSION_METHODS, FusionConfig
 from acc_fusion.fusion.federated import FederatedFilter
-from acc_fusion.sensors.sensor import SensorSpec
+from acc_fusion.sensors.spec import SensorSpec
 
 
 def make_estimator(
@@ -67,7 +67,7 @@ def make_estimator(
 ) -> Estimator:
     """Build the estimator named by ``config.method`` (or by a method name with defaults).
 
-    ``specs`` (the sensors' :class:`~acc_fusion.sensors.sensor.SensorSpec`, in the order of
+    ``specs`` (the sensors' :class:`~acc_fusion.sensors.spec.SensorSpec`, in the order of
     ``sensors``) is needed by the constant-gain filter (``local="steady"``) and enables the
     federated filter's track confirmation (each sensor's range interval).
 

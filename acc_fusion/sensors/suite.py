@@ -7,13 +7,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from acc_fusion.sensors.faults import Fault
-from acc_fusion.sensors.sensor import (
-    InfraredSensor,
-    RadarSensor,
-    SensorSpec,
-    infrared_spec,
-    radar_spec,
-)
+from acc_fusion.sensors.sensor import InfraredSensor, RadarSensor
+from acc_fusion.sensors.spec import SensorSpec, infrared_spec, radar_spec
 
 SENSOR_NAMES = ("radar", "infrared")
 

@@ -32,7 +32,8 @@ from acc_fusion.fusion.config import FUSION_METHODS, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.metrics.events import FCWMetrics, FCWSummary
 from acc_fusion.sensors.faults import Fault
-from acc_fusion.sensors.sensor import Measurement, infrared_spec, radar_spec
+from acc_fusion.sensors.sensor import Measurement
+from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import SlotSource, TruthFrame

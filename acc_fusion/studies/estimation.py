@@ -17,10 +17,7 @@ from acc_fusion.filters import kalman
 from acc_fusion.fusion.config import FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.faults import Fault
-from acc_fusion.sensors.sensor import (
-    infrared_spec,
-    radar_spec,
-)
+from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.estimation import chi2_mean_bounds, run_estimation
 from acc_fusion.truth.frame import LinearGaussianSource

@@ -1,0 +1,135 @@
+"""The stepping shared by the single and the vector environment: the FCW pipeline over a batch
+of episodes, the observation, the reward and the episode's end (:class:`_Core`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
+from acc_fusion.envs.observation import _HIGH, _LOW, AGE_CLIP, NIS_CLIP, NO_TRACK_GAP
+from acc_fusion.sensors.suite import SENSOR_NAMES
+from acc_fusion.sim.closed_loop import Perception
+from acc_fusion.truth.driver import Driver
+from acc_fusion.truth.scripted import make_scenario
+from acc_fusion.warning.safety import safety_distances
+
+
+def _single(info: dict) -> dict:
+    """The info of copy 0 of a batched info dict, as plain Python values."""
+    return {k: v[0].item() if isinstance(v, np.ndarray) else v for k, v in info.items()}
+
+
+class _Core:
+    """The simulation behind the environments, batched over ``n`` copies (array arithmetic).
+
+    Each copy is one run of the scenario: truth source, sensors, ego-motion filter, the
+    federated fusion center, the oracle and the driver, all over arrays of ``n`` pairs.
+    ``source`` replaces the scripted scenario by another truth source of ``n`` pairs (the
+    SUMO or highway-env episode, a :class:`_SlotView`).
+    """
+
+    def __init__(self, n, scenario, config, reward, rng: np.random.Generator, source=None):
+        root = np.random.SeedSequence(int(rng.integers(2**63)))
+        s_source, s_perception, s_driver = root.spawn(3)
+        self.n, self.config, self.reward = n, config, reward
+        self.dt = config.dt
+        if source is None:
+            source = make_scenario(scenario, n, seed=np.random.default_rng(s_source), dt=self.dt)
+        self.source = source
+        self.perception = Perception(config, n, s_perception)
+        self.driver = Driver(n, config.driver, seed=np.random.default_rng(s_driver))
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.last_seen = np.full((len(SENSOR_NAMES), n), -np.inf)
+        self.collided = np.zeros(n, dtype=bool)
+        self._perceive(None)
+
+    @property
+    def t(self) -> float:
+        return float(self.seen.frame.t)
+
+    @property
+    def ended(self) -> np.ndarray:
+        """Copies whose scenario run is over."""
+        return ~self.source.active
+
+    @property
+    def fused_gap(self) -> np.ndarray:
+        est = self.seen.estimates["federated"]
+        return np.where(est.valid, est.gap, np.nan)
+
+    def act(self, action: np.ndarray, restart=None, rng=None) -> np.ndarray:
+        """Apply the warnings and advance one step; the copies in ``restart`` then start a
+        new run (drawn from ``rng``) while the others continue.  Returns the rewards."""
+        reward = self._reward(action, self.seen.oracle)
+        brake = self.driver.step(action, self.seen.frame)
+        was = self.source.collided
+        self.source.advance(brake)
+        self.perception.advanced()
+        self.steps += 1
+        self.collided = self.source.collided & ~was
+        reward -= self.reward.collision * self.collided
+        if restart is not None and restart.any():
+            self.source.restart(restart, np.random.default_rng(int(rng.integers(2**63))))
+            self.driver.reset(restart)
+            self.steps[restart] = 0
+            self.last_seen[:, restart] = -np.inf
+            self.collided[restart] = False
+            reward[restart] = 0.0
+        self._perceive(restart)
+        return reward
+
+    def _perceive(self, reassigned) -> None:
+        frame = self.source.frame()
+        self.seen = self.perception.step(frame, self.source.active, reassigned)
+        for i, m in enumerate(self.seen.measurements):
+            self.last_seen[i, m.valid] = frame.t
+
+    def _reward(self, action: np.ndarray, oracle: np.ndarray) -> np.ndarray:
+        w = self.reward
+        per_s = np.where(
+            oracle >= IMMINENT,
+            np.where(action >= IMMINENT, w.timely, -w.missed),
+            np.where(
+                action >= IMMINENT,
+                -w.false_alarm,
+                np.where((action == CAUTION) & (oracle == NONE), -w.nuisance, 0.0),
+            ),
+        )
+        return per_s * self.dt
+
+    def d_imminent(self) -> np.ndarray:
+        """The imminent safety distance of the fused estimate (NaN without a track)."""
+        est = self.seen.estimates["federated"]
+        _, d = safety_distances(
+            self.config.warning.model,
+            np.maximum(self.seen.v_ego, 0.0),
+            np.where(est.valid, est.x[:, 1], 0.0),
+            np.where(est.valid, est.x[:, 2], 0.0),
+            self.config.warning.params,
+        )
+        return np.where(est.valid, d, np.nan)
+
+    def observe(self, collided: np.ndarray) -> tuple[np.ndarray, dict]:
+        """Observations ``(n, 16)`` and the info arrays."""
+        p, est = self.seen, self.seen.estimates["federated"]
+        valid = est.valid
+        std = np.sqrt(np.clip(np.diagonal(est.p, axis1=1, axis2=2), 0.0, None))
+        x = np.where(valid[:, None], est.x, [NO_TRACK_GAP, 0.0, 0.0])
+        std = np.where(valid[:, None], std, 0.0)
+        nis = np.where(np.isfinite(est.nis), np.minimum(est.nis, NIS_CLIP), 0.0)
+        age = np.minimum(p.frame.t - self.last_seen, AGE_CLIP)
+        sensors = []
+        for i, m in enumerate(p.measurements):
+            sensors += [m.valid, est.isolated[:, i], nis[:, i], age[i]]
+        obs = np.column_stack([x, std, np.maximum(p.v_ego, 0.0), valid, np.column_stack(sensors)])
+        obs = np.clip(obs, _LOW, _HIGH).astype(np.float32)
+        info = {
+            "t": np.full(self.n, p.frame.t),
+            "oracle": p.oracle.astype(np.int64),
+            "ttc": p.ttc.astype(float),
+            "ego_speed": p.frame.ego_speed.copy(),
+            "gap_true": np.where(p.frame.has_leader, p.frame.gap, np.nan),
+            "collided": collided.copy(),
+            "active": self.source.active.copy(),
+        }
+        return obs, info
