@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import signal
 import socket
 import subprocess
@@ -284,20 +283,33 @@ methods = ["radar", "federated"]
 """
 
 
+#: The sweep run by the SIGKILL test: the CLI in a child process whose store kills the process
+#: (SIGKILL, no clean-up) right after writing its fifth part: a known point, whatever the speed.
+KILL_AFTER_FIVE_PARTS = """
+import os, signal, sys
+from acc_fusion.cli.main import main
+from acc_fusion.sweep.store import SweepStore
+
+write_part = SweepStore.write_part
+def write_then_die(self, chunk, columns):
+    write_part(self, chunk, columns)
+    if len(list((self.out / "parts").glob("*.parquet"))) >= 5:
+        os.kill(os.getpid(), signal.SIGKILL)
+SweepStore.write_part = write_then_die
+sys.exit(main(sys.argv[1:]))
+"""
+
+
 def test_sigkill_then_resume_equals_an_uninterrupted_sweep(tmp_path):
     cfg_path = write_toml(tmp_path / "kill.toml", KILL_CONFIG)
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "acc_fusion.cli.main", "sweep", str(cfg_path), "--out", str(out)]
-    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cmd = [sys.executable, "-c", KILL_AFTER_FIVE_PARTS, "sweep", str(cfg_path), "--out", str(out)]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, timeout=300)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.decode()[-2000:]
     parts = out / "parts"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and len(list(parts.glob("*.parquet"))) < 5:
-        time.sleep(0.05)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
     done = list(parts.glob("*.parquet"))
     n_chunks = len(load_sweep(cfg_path).chunks())
-    assert 5 <= len(done) < n_chunks, "kill the sweep part-way"
+    assert len(done) == 5 < n_chunks, "killed part-way"
     assert not (out / "runs.parquet").exists()
     for part in done:  # every part left is whole
         assert len(pd.read_parquet(part)) == 4 * 2

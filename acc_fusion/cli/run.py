@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from acc_fusion.cli.common import (
     add_sim_arguments,
     sim_config,
@@ -42,7 +44,9 @@ def run(args: argparse.Namespace) -> int:
     for method, summary in result.summaries.items():
         print(f"== {method}{' (drives the closed loop)' if method == cfg.drive else ''}")
         print(summary.format())
-    print(f"collisions: {int(result.collided.sum())} of {cfg.runs} runs")
+    hit = np.flatnonzero(result.collided)
+    which = f" (run {', '.join(map(str, hit))})" if 0 < hit.size <= 10 else ""
+    print(f"collisions: {hit.size} of {cfg.runs} runs{which}")
     stem = f"run_{cfg.scenario}_seed{cfg.seed}"
     write_csv_atomic(out / f"{stem}.csv", list(trace.rows[0]), trace.rows)
     save_figure_atomic(run_figure(trace, cfg), out / f"{stem}.png")

@@ -34,13 +34,16 @@ def load_mapping(path: str | Path) -> dict[str, Any]:
     if not p.is_file():
         raise ConfigError(f"config file {str(p)!r} does not exist")
     suffix = p.suffix.lower()
+    if suffix not in (".toml", ".yaml", ".yml"):
+        raise ConfigError(f"config file {str(p)!r} must end in .toml, .yaml or .yml")
     try:
-        if suffix == ".toml":
-            data = tomllib.loads(p.read_text())
-        elif suffix in (".yaml", ".yml"):
-            data = yaml.safe_load(p.read_text()) or {}
-        else:
-            raise ConfigError(f"config file {str(p)!r} must end in .toml, .yaml or .yml")
+        text = p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"config file {str(p)!r} is not UTF-8 text") from None
+    except OSError as exc:
+        raise ConfigError(f"config file {str(p)!r} cannot be read: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text) if suffix == ".toml" else yaml.safe_load(text) or {}
     except (tomllib.TOMLDecodeError, yaml.YAMLError) as exc:
         raise ConfigError(f"config file {str(p)!r} is not valid {suffix[1:]}: {exc}") from None
     if not isinstance(data, dict):
@@ -68,9 +71,37 @@ def from_mapping(cls: type[T], data: Mapping[str, Any] | None, prefix: str = "")
     return cls(**kwargs)
 
 
+_SCALARS = {bool: "true or false", int: "a whole number", float: "a number", str: "a string"}
+
+
+def _type_error(name: str, expected: str, value: Any) -> ConfigError:
+    return ConfigError(f"{name} must be {expected}, got {value!r}")
+
+
 def _convert(tp: Any, value: Any, name: str) -> Any:
+    """``value`` checked against the declared type ``tp`` (nested dataclasses built), so that a
+    wrong type is a :class:`ConfigError` naming the key, never a ``TypeError`` later."""
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
+    if tp in _SCALARS:
+        ok = (
+            isinstance(value, bool)
+            if tp is bool
+            else isinstance(value, tp)
+            and not isinstance(value, bool)
+            or (tp is float and isinstance(value, int) and not isinstance(value, bool))
+        )
+        if not ok:
+            raise _type_error(name, _SCALARS[tp], value)
+        return float(value) if tp is float else value
+    if tp is dict or origin is dict:
+        if not isinstance(value, Mapping):
+            raise _type_error(name, "a table/mapping", value)
+        return value
+    if origin is typing.Literal:
+        if value not in args:
+            raise _type_error(name, "one of " + ", ".join(map(repr, args)), value)
+        return value
     if dataclasses.is_dataclass(tp):
         if isinstance(value, tp):
             return value
@@ -83,9 +114,35 @@ def _convert(tp: Any, value: Any, name: str) -> Any:
         inner = [a for a in args if a is not type(None)]
         if len(inner) == 1:
             return _convert(inner[0], value, name)
-        return value
-    if origin is tuple and isinstance(value, (list, tuple)):
+        for option in inner:  # the first type the value has
+            try:
+                return _convert(option, value, name)
+            except ConfigError:
+                continue
+        raise _type_error(name, " or ".join(_describe(a) for a in args), value)
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise _type_error(name, "a list", value)
         if len(args) == 2 and args[1] is Ellipsis:
             return tuple(_convert(args[0], v, f"{name}[{i}]") for i, v in enumerate(value))
+        if args and len(args) != len(value):
+            raise _type_error(name, f"a list of {len(args)} values", value)
+        if args:
+            return tuple(
+                _convert(a, v, f"{name}[{i}]")
+                for i, (a, v) in enumerate(zip(args, value, strict=True))
+            )
         return tuple(value)
     return value
+
+
+def _describe(tp: Any) -> str:
+    if tp is type(None):
+        return "null"
+    if tp in _SCALARS:
+        return _SCALARS[tp]
+    if typing.get_origin(tp) is tuple:
+        return "a list"
+    if dataclasses.is_dataclass(tp) or tp is dict or typing.get_origin(tp) is dict:
+        return "a table/mapping"
+    return getattr(tp, "__name__", str(tp))

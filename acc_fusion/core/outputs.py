@@ -30,10 +30,26 @@ def output_dir(path: str | Path) -> Path:
     return p
 
 
+def file_mode() -> int:
+    """The mode a new file gets from ``open()``: 0o666 less the process's umask."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def temporary_beside(path: Path, suffix: str = ".tmp") -> tuple[int, str]:
+    """A temporary file in ``path``'s folder (for an atomic rename onto ``path``) with the mode
+    a plain ``open()`` would give, not :func:`tempfile.mkstemp`'s 0600."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
+    os.fchmod(fd, file_mode())
+    return fd, tmp
+
+
 def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (temporary file + fsync + rename)."""
+    """Write ``data`` to ``path`` atomically (temporary file + fsync + rename); the file's mode
+    respects the umask."""
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
+    fd, tmp = temporary_beside(p)
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)

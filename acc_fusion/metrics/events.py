@@ -365,15 +365,24 @@ class FCWMetrics(PairState):
             self._counts[i] += np.count_nonzero(mask)
             self._pair_counts[i] += mask
 
-    def finish(self, t: float) -> None:
+    def finish(self, t: float, collided: np.ndarray | None = None) -> None:
         """End the run at time ``t`` (>= the last step's time): resolve every open event.
 
         No interval can start after the run, so every live warning or threat is final:
-        unmatched ones count as false alarms or misses now.
+        unmatched ones count as false alarms or misses now.  ``collided`` (N,) are the pairs
+        collided at the end: a collision in the run's last step (which ends the run, so no
+        :meth:`update` saw it) counts too.
         """
         if not float(t) >= self._last_t:
             raise InputError(f"t must not be before the last step's time, got {t!r}")
-        self._add(false_alarms=self._warnings.finish(), missed=self._threats.finish())
+        late = (
+            np.zeros(self.n_pairs, dtype=bool)
+            if collided is None
+            else self._mask("collided", collided) & ~self._collided
+        )
+        self._add(
+            false_alarms=self._warnings.finish(), missed=self._threats.finish(), collisions=late
+        )
         self._collided[:] = False
         self._last_t = -math.inf
 

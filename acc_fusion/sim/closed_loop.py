@@ -422,7 +422,7 @@ def simulate(
     t_end = source.t
     resize_all(metrics.values(), n)
     for m in metrics.values():
-        m.finish(t_end)
+        m.finish(t_end, source.collided)
     return SimResult(
         config=cfg,
         summaries={m: metrics[m].summary() for m in cfg.methods},

@@ -4,7 +4,6 @@ rendered replay of a run with the fused gap, safety distance and warning level d
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -12,7 +11,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
-from acc_fusion.core.outputs import output_dir, write_bytes_atomic
+from acc_fusion.core.outputs import output_dir, temporary_beside, write_bytes_atomic
 from acc_fusion.core.validation import check_choice
 from acc_fusion.metrics.events import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
@@ -90,9 +89,7 @@ class Replay:
         if not self._gif:
             import imageio.v2 as imageio
 
-            fd, self._tmp = tempfile.mkstemp(
-                dir=self.path.parent, prefix=f".{self.path.name}.", suffix=".mp4"
-            )
+            fd, self._tmp = temporary_beside(self.path, suffix=".mp4")
             os.close(fd)
             self._writer = imageio.get_writer(
                 self._tmp, fps=self.fps, macro_block_size=2, format="FFMPEG"

@@ -81,6 +81,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -267,8 +268,11 @@ class SweepConfig:
         )
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name.strip():
-            raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.name, str) or not re.fullmatch(r"[A-Za-z0-9][\w.-]*", self.name):
+            raise ConfigError(
+                "name must be a plain label (letters, digits, '_', '-', '.'; no path), "
+                f"got {self.name!r}"
+            )
         check_choice("source", self.source, SOURCES)
         for i, s in enumerate(self.seeds):
             _whole(f"seeds[{i}]", s, 0, 2**63 - 1)
