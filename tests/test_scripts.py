@@ -30,7 +30,13 @@ def assert_png(path: Path) -> None:
 
 @pytest.mark.parametrize(
     "script",
-    ["reproduce_kong2011.py", "fault_tolerance.py", "steady_state_vs_full.py", "bench_filters.py"],
+    [
+        "reproduce_kong2011.py",
+        "reproduce_cn103196450a.py",
+        "fault_tolerance.py",
+        "steady_state_vs_full.py",
+        "bench_filters.py",
+    ],
 )
 def test_help(script):
     out = run(script, "--help").stdout

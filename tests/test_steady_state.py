@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
@@ -10,13 +14,26 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEASUREMENT_MATRIX, ca_process_noise, ca_transition
 from acc_fusion.filters.ego import EgoFilterConfig
 from acc_fusion.filters.steady_state import (
-    TiltExampleConfig,
-    TiltExampleRun,
     continuous_steady_state_gain,
     periodic_steady_state,
-    simulate_cn103196450a,
     steady_state_gain,
 )
+
+
+def _load_script(name: str):
+    """A script of ``scripts/`` imported by path (the tilt example lives there, not in the
+    library)."""
+    path = Path(__file__).resolve().parents[1] / "scripts" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+_cn = _load_script("reproduce_cn103196450a")
+TiltExampleConfig, TiltExampleRun = _cn.TiltExampleConfig, _cn.TiltExampleRun
+simulate_cn103196450a = _cn.simulate_cn103196450a
 
 DT = 0.05
 F_CA = ca_transition(DT)
