@@ -33,13 +33,8 @@ import time
 import numpy as np
 
 from acc_fusion.sim.closed_loop import DEFAULT_METHODS, SimConfig, simulate
-from acc_fusion.truth.highway.source import (
-    DEFAULT_DURATION,
-    SUPPORTED,
-    HighwayConfig,
-    HighwaySource,
-    make_env,
-)
+from acc_fusion.truth.highway.config import DEFAULT_DURATION, SUPPORTED, HighwayConfig, make_env
+from acc_fusion.truth.highway.source import HighwaySource
 
 
 def bare(config: HighwayConfig) -> tuple[float, float, int]:

@@ -58,8 +58,9 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     import libsumo
     import numpy as np
 
+    from acc_fusion.truth.sumo.config import SumoConfig
     from acc_fusion.truth.sumo.native import sumo_reader
-    from acc_fusion.truth.sumo.source import SumoConfig, sumo_command
+    from acc_fusion.truth.sumo.source import sumo_command
 
     config = SumoConfig(sumocfg=sumocfg, end=end)
     libsumo.start([*sumo_command(config), "--end", str(end)])
@@ -97,7 +98,7 @@ def _source(sumocfg: str, end: float) -> tuple[float]:
     """Wall time of the background source alone, from its first frame to its last, with
     nothing done with the frames."""
     from acc_fusion.truth.sumo.background import BackgroundSumoSource
-    from acc_fusion.truth.sumo.source import SumoConfig
+    from acc_fusion.truth.sumo.config import SumoConfig
 
     source = BackgroundSumoSource(SumoConfig(sumocfg=sumocfg, end=end))
     t0 = time.perf_counter()
@@ -130,7 +131,8 @@ def _pipeline(sumocfg: str, end: float, inline: bool) -> tuple[float, int, float
     pipeline process's CPU time per step [ms]."""
     from acc_fusion.sim.closed_loop import SimConfig, simulate
     from acc_fusion.truth.sumo.background import BackgroundSumoSource
-    from acc_fusion.truth.sumo.source import SumoConfig, SumoSource
+    from acc_fusion.truth.sumo.config import SumoConfig
+    from acc_fusion.truth.sumo.source import SumoSource
 
     # Before SUMO starts (a background source would run ahead meanwhile, off the clock):
     # compile, or load from numba's cache, every kernel of the pipeline.

@@ -3,7 +3,7 @@
 Runs the loop of :class:`acc_fusion.truth.sumo.background.BackgroundSumoSource`'s child in this
 process (``--repeat`` times, each in a fresh process: libsumo runs one simulation per
 process): SUMO's step, the source's reads, their arrays written into a ring of shared memory
-(:class:`~acc_fusion.truth.sumo.background._Snapshots`, the parent's room given back at once) and
+(:class:`~acc_fusion.truth.sumo.ring._Snapshots`, the parent's room given back at once) and
 the message pickled and written (to ``/dev/null``); the parent makes the frames.  It times
 SUMO's step, the compiled reader's call (``reads``; 0 where the reader is not available),
 the rest of the source's reading (``fill``: the arrays, the leaders without a slot), the
@@ -34,7 +34,8 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
     import libsumo
 
     from acc_fusion.truth.sumo import background as bg
-    from acc_fusion.truth.sumo.source import SumoConfig, SumoSource
+    from acc_fusion.truth.sumo.config import SumoConfig
+    from acc_fusion.truth.sumo.source import SumoSource
 
     class NoParent(bg._RingWriter):
         """The child's ring writer, with the room given back at once (no parent reads)."""

@@ -18,7 +18,7 @@ import acc_fusion  # noqa: E402,F401  (registers the environment)
 from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.envs.collision_warning import CollisionWarningEnv, CollisionWarningVectorEnv  # noqa: E402
 from acc_fusion.envs.options import SumoOptions  # noqa: E402
-from acc_fusion.truth.sumo.source import SumoError  # noqa: E402
+from acc_fusion.truth.sumo.config import SumoError  # noqa: E402
 
 ENV_ID = "acc_fusion/CollisionWarning-v0"
 RING = {"net": "ring", "warmup": 0.0}

@@ -19,14 +19,14 @@ from acc_fusion.cli.main import main  # noqa: E402
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.sim.closed_loop import SimConfig  # noqa: E402
 from acc_fusion.studies.highway import highway_study
-from acc_fusion.truth.highway.source import (
+from acc_fusion.truth.highway.config import (
     INSTALL,
     SUPPORTED,
     HighwayConfig,
     HighwayError,
-    HighwaySource,
     load_highway_env,
 )
+from acc_fusion.truth.highway.source import HighwaySource
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -14,8 +14,9 @@ import pytest
 libsumo = pytest.importorskip("libsumo")
 
 import acc_fusion.truth.sumo.native as native  # noqa: E402
+from acc_fusion.truth.sumo.config import SumoConfig  # noqa: E402
 from acc_fusion.truth.sumo.nets import bundled_nets  # noqa: E402
-from acc_fusion.truth.sumo.source import SumoConfig, SumoSource  # noqa: E402
+from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
 
 BUILDS_HERE = sys.platform.startswith("linux") and bool(shutil.which("c++") or shutil.which("g++"))
 

@@ -12,7 +12,8 @@ pytest.importorskip("gymnasium")
 
 from acc_fusion.cli import evaluate as evaluate_command
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
-from acc_fusion.envs.evaluation import episode_seed, evaluate, evaluate_many, load_policy
+from acc_fusion.envs.evaluation import episode_seed, evaluate, evaluate_many
+from acc_fusion.envs.loader import load_policy
 from acc_fusion.envs.observation import OBS_FIELDS
 from acc_fusion.envs.policies import (  # noqa: E402
     BASELINES,

@@ -22,7 +22,8 @@ from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.envs.collision_warning import (  # noqa: E402
     CollisionWarningEnv,
 )
-from acc_fusion.envs.evaluation import evaluate, evaluate_many, load_policy  # noqa: E402
+from acc_fusion.envs.evaluation import evaluate, evaluate_many
+from acc_fusion.envs.loader import load_policy
 from acc_fusion.envs.policies import NeverWarn  # noqa: E402
 from acc_fusion.envs.rl import (  # noqa: E402
     ENV_ID,

@@ -29,8 +29,10 @@ import acc_fusion.truth.sumo.source as sumo_mod  # noqa: E402
 from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.core.slots import Extent  # noqa: E402
 from acc_fusion.sim.closed_loop import SimConfig, simulate  # noqa: E402
-from acc_fusion.truth.sumo.background import COUNTERS, BackgroundSumoSource, _Outbox  # noqa: E402
-from acc_fusion.truth.sumo.source import SumoConfig, SumoError, SumoSource, check_sumocfg  # noqa: E402
+from acc_fusion.truth.sumo.background import BackgroundSumoSource, _Outbox  # noqa: E402
+from acc_fusion.truth.sumo.config import SumoConfig, SumoError, check_sumocfg  # noqa: E402
+from acc_fusion.truth.sumo.ring import COUNTERS  # noqa: E402
+from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
 
 ROUTES = """<routes>
   <vType id="car" length="4.5" minGap="2.5" accel="2.6" decel="4.5" sigma="0.5" tau="1.0"/>

@@ -60,7 +60,8 @@ def test_gui_run_colours_vehicles_by_the_driving_methods_warning(monkeypatch):
     import acc_fusion.truth.sumo.source as sumo_mod
     from acc_fusion.sim.closed_loop import SimConfig
     from acc_fusion.studies.traffic import _run
-    from acc_fusion.truth.sumo.source import SumoConfig, SumoSource
+    from acc_fusion.truth.sumo.config import SumoConfig
+    from acc_fusion.truth.sumo.source import SumoSource
 
     real = sumo_mod._sumo_binary
     monkeypatch.setattr(sumo_mod, "_sumo_binary", lambda gui: real(False))

@@ -11,7 +11,8 @@ from acc_fusion.cli.common import positive_float, positive_int, seed
 from acc_fusion.core.config import from_mapping, load_mapping
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import output_dir, write_csv_atomic, write_json_atomic
-from acc_fusion.envs.evaluation import comparison_table, evaluate_many, load_policy
+from acc_fusion.envs.evaluation import comparison_table, evaluate_many
+from acc_fusion.envs.loader import load_policy
 from acc_fusion.envs.options import HighwayOptions, SumoOptions
 from acc_fusion.envs.policies import BASELINES
 from acc_fusion.sim.closed_loop import SimConfig

@@ -16,7 +16,7 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.core.outputs import output_dir
 from acc_fusion.studies.highway import check_replay_path, highway_study
-from acc_fusion.truth.highway.source import INSTALL, PAIRS, SUPPORTED, HighwayConfig
+from acc_fusion.truth.highway.config import INSTALL, PAIRS, SUPPORTED, HighwayConfig
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -12,8 +12,8 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.core.outputs import output_dir
 from acc_fusion.studies.traffic import sumo_study
+from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
-from acc_fusion.truth.sumo.source import SumoConfig
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -24,7 +24,7 @@ from acc_fusion.envs.options import (
 from acc_fusion.envs.traffic import _HighwayTraffic, _open_traffic, _SumoTraffic
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.truth.manoeuvres import SCENARIOS
-from acc_fusion.truth.sumo.source import SumoError
+from acc_fusion.truth.sumo.config import SumoError
 
 
 class CollisionWarningEnv(gym.Env):
@@ -103,12 +103,12 @@ class CollisionWarningEnv(gym.Env):
     (:func:`acc_fusion.envs.evaluation.evaluate` does so for this source:
     :attr:`reseeding_restarts`).  Time in the observations' info restarts at 0 each episode.
 
-    A SUMO failure inside an episode (:class:`~acc_fusion.truth.sumo.source.SumoError`) ends it:
+    A SUMO failure inside an episode (:class:`~acc_fusion.truth.sumo.config.SumoError`) ends it:
     ``step``
     returns the last observation with reward 0, ``truncated=True`` and the message in
     ``info["sumo_error"]`` (and warns); the next ``reset()`` restarts the simulation.  libsumo
     holds one simulation per process, so a second SUMO environment in the same process fails
-    at its first reset with a :class:`~acc_fusion.truth.sumo.source.SumoError`.
+    at its first reset with a :class:`~acc_fusion.truth.sumo.config.SumoError`.
 
     ## The highway source
 

@@ -12,9 +12,9 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_range
-from acc_fusion.truth.highway.source import HighwayConfig
+from acc_fusion.truth.highway.config import HighwayConfig
+from acc_fusion.truth.sumo.config import SumoConfig, check_sumocfg
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
-from acc_fusion.truth.sumo.source import SumoConfig, check_sumocfg
 
 #: Truth sources of the environment.
 SOURCES = ("scripted", "sumo", "highway")
@@ -71,14 +71,14 @@ class SumoOptions:
         penetration: fraction of the vehicles equipped with FCW, in (0, 1]: the vehicles an
             episode can follow; 0.1.
         inattentive: fraction of the equipped drivers with a late reaction (SUMO's action step
-            of 1.5 s, :attr:`acc_fusion.truth.sumo.source.SumoConfig.inattentive`), in [0, 1]:
+            of 1.5 s, :attr:`acc_fusion.truth.sumo.config.SumoConfig.inattentive`), in [0, 1]:
             without
             them SUMO's drivers never need a warning; 1.0.
         lead_hazard: probability, per episode, that the ego's leader brakes at
             ``hazard_decel`` for ``hazard_duration`` at a time drawn uniformly in
             :data:`LEAD_HAZARD_WINDOW`, in [0, 1]; 0.5.
         hazard_rate: emergency brakings of randomly drawn vehicles per vehicle-hour
-            (:attr:`acc_fusion.truth.sumo.source.SumoConfig.hazard_rate`); 0.
+            (:attr:`acc_fusion.truth.sumo.config.SumoConfig.hazard_rate`); 0.
         hazard_decel: deceleration of an emergency braking [m/s²]; 8.0.
         hazard_duration: duration of an emergency braking [s]; 3.0.
         capacity: maximum number of equipped vehicles tracked at once; 256.
@@ -114,7 +114,7 @@ class SumoOptions:
         return self.net or Path(self._path).stem
 
     def sumo_config(self, seed: int, dt: float):
-        """The :class:`acc_fusion.truth.sumo.source.SumoConfig` of a simulation with SUMO seed
+        """The :class:`acc_fusion.truth.sumo.config.SumoConfig` of a simulation with SUMO seed
         ``seed`` and
         step ``dt`` [s] (the environment's step)."""
 
@@ -150,7 +150,7 @@ class HighwayOptions:
     controlled vehicle is the ego (see :class:`CollisionWarningEnv`).
 
     Attributes:
-        env: highway-env environment id, one of :data:`acc_fusion.truth.highway.source.SUPPORTED`;
+        env: highway-env environment id, one of :data:`acc_fusion.truth.highway.config.SUPPORTED`;
             ``"highway-fast-v0"`` (3 lanes, 20 vehicles: about three times cheaper per step
             than ``highway-v0`` and as rich in threats).
         duration: seconds per episode [s]; ``None``: the environment's (30 s in
@@ -194,7 +194,7 @@ class HighwayOptions:
         return 1.0 / self.simulation_frequency
 
     def highway_config(self, seed: int):
-        """The :class:`acc_fusion.truth.highway.source.HighwayConfig` of one episode from ``seed``
+        """The :class:`acc_fusion.truth.highway.config.HighwayConfig` of one episode from ``seed``
         with the
         controlled vehicle as the only pair."""
 

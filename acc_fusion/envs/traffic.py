@@ -18,8 +18,10 @@ from acc_fusion.envs.options import (
 )
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.truth.frame import TruthFrame
-from acc_fusion.truth.highway.source import HighwaySource, load_highway_env
-from acc_fusion.truth.sumo.source import SumoError, SumoSource
+from acc_fusion.truth.highway.config import load_highway_env
+from acc_fusion.truth.highway.source import HighwaySource
+from acc_fusion.truth.sumo.config import SumoError
+from acc_fusion.truth.sumo.source import SumoSource
 
 
 def _open_traffic(source: str, options, config: SimConfig) -> _SumoTraffic | _HighwayTraffic:

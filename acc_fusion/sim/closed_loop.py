@@ -30,7 +30,8 @@ from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
 from acc_fusion.fusion.config import FUSION_METHODS, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
-from acc_fusion.metrics.events import FCWMetrics, FCWSummary
+from acc_fusion.metrics.events import FCWMetrics
+from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import Measurement
 from acc_fusion.sensors.spec import infrared_spec, radar_spec

@@ -13,8 +13,8 @@ import numpy as np
 
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.table import Table
-from acc_fusion.metrics.events import FCWSummary
 from acc_fusion.metrics.protocols import REQUIREMENTS
+from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import FirstWarning, SimConfig, SimResult, simulate
 
 #: Radar clutter of the comparison runs: ghosts of stationary roadside objects, the classic

@@ -13,10 +13,11 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
 from acc_fusion.core.outputs import output_dir, temporary_beside, write_bytes_atomic
 from acc_fusion.core.validation import check_choice
-from acc_fusion.metrics.events import FCWSummary
+from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.studies.compare import on_off_table
-from acc_fusion.truth.highway.source import HighwayConfig, HighwayError, HighwaySource
+from acc_fusion.truth.highway.config import HighwayConfig, HighwayError
+from acc_fusion.truth.highway.source import HighwaySource
 from acc_fusion.warning.logic import WarningConfig
 from acc_fusion.warning.safety import safety_distances
 

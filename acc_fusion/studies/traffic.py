@@ -17,11 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from acc_fusion.metrics.events import FCWSummary
+from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.studies.compare import on_off_table
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
-from acc_fusion.truth.sumo.source import SumoError, SumoSource
+from acc_fusion.truth.sumo.config import SumoError
+from acc_fusion.truth.sumo.source import SumoSource
 
 
 class _MinTTC:

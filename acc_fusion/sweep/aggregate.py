@@ -7,8 +7,8 @@ import math
 from pathlib import Path
 
 from acc_fusion.core.outputs import write_csv_atomic
-from acc_fusion.metrics.events import event_rates
 from acc_fusion.metrics.stats import Rate
+from acc_fusion.metrics.summary import event_rates
 from acc_fusion.sweep.columns import COUNT_COLUMNS, SUM_COLUMNS
 from acc_fusion.sweep.config import SweepConfig
 
@@ -41,7 +41,7 @@ def aggregate(rows, by: list[str], confidence: float = 0.95):
     return pd.DataFrame(out)
 
 
-#: Rate of :func:`acc_fusion.metrics.events.event_rates` -> column name in :func:`aggregate`.
+#: Rate of :func:`acc_fusion.metrics.summary.event_rates` -> column name in :func:`aggregate`.
 _RATE_COLUMNS = {
     "false_alarms_per_hour": "fa_per_hour",
     "false_alarms_per_100km": "fa_per_100km",

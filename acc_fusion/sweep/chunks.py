@@ -50,7 +50,7 @@ def run_chunk(chunk: Chunk) -> dict[str, list]:
 
 
 def _summary_counts(s) -> dict[str, np.ndarray]:
-    """The per-run figures of a one-run :class:`~acc_fusion.metrics.events.FCWSummary` (a SUMO run:
+    """The per-run figures of a one-run :class:`~acc_fusion.metrics.summary.FCWSummary` (a SUMO run:
     all its vehicles together)."""
     lead = s.lead_time.mean * s.lead_time.finite if s.lead_time.finite else 0.0
     figures = {c: getattr(s, c) for c in (*COUNT_COLUMNS, "hours", "km")}

@@ -20,7 +20,7 @@ Config (TOML or YAML; :class:`SweepConfig`)
     sample_seed   seed of those draws (0)
     base          :class:`~acc_fusion.sim.closed_loop.SimConfig` fields shared by every point (not
                   ``runs`` nor ``seed``, which the sweep sets)
-    sumo          :class:`~acc_fusion.truth.sumo.source.SumoConfig` fields of SUMO points, with
+    sumo          :class:`~acc_fusion.truth.sumo.config.SumoConfig` fields of SUMO points, with
     ``net``
                   (a bundled network) or ``sumocfg`` (a file); not ``seed``
     axes          the swept settings: a dotted key into ``base`` (e.g. ``"warning.z"``,
@@ -94,7 +94,7 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_choice
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sweep.points import SOURCES, Chunk, Point, _expand
-from acc_fusion.truth.sumo.source import SumoConfig
+from acc_fusion.truth.sumo.config import SumoConfig
 
 DISTRIBUTIONS = ("uniform", "loguniform", "randint", "choice")
 

@@ -19,8 +19,8 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.schema import set_path
 from acc_fusion.core.validation import check_choice
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
-from acc_fusion.truth.sumo.source import SumoConfig
 
 if TYPE_CHECKING:
     from acc_fusion.sweep.config import Axis, SweepConfig
@@ -45,7 +45,7 @@ class Point:
         sim: the :class:`~acc_fusion.sim.closed_loop.SimConfig` fields (without ``runs`` and
             ``seed``).
         sumo: the SUMO fields (``net`` or ``sumocfg``,
-            :class:`~acc_fusion.truth.sumo.source.SumoConfig`
+            :class:`~acc_fusion.truth.sumo.config.SumoConfig`
             fields) of a SUMO point, else ``{}``.
         fault: the fault types injected, e.g. ``"radar:bias+infrared:dropout"``, or ``"none"``.
     """

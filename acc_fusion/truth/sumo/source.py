@@ -124,7 +124,6 @@ import sys
 import tempfile
 import warnings
 import weakref
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
@@ -134,168 +133,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import WARNING_COLORS
 from acc_fusion.core.units import TIME_TOL
-from acc_fusion.core.validation import check_array, check_choice, check_range
+from acc_fusion.core.validation import check_array, check_range
 from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.sumo.config import UNBOUNDED_END, SumoConfig, SumoError, check_sumocfg
+from acc_fusion.truth.sumo.frames import FrameMaker
 from acc_fusion.truth.sumo.native import sumo_reader
 
-#: Collision actions allowed for :attr:`SumoConfig.collision_action` (SUMO's
-#: ``--collision.action`` values that still report the collision).
-COLLISION_ACTIONS = ("remove", "warn", "teleport")
 #: SUMO speed-mode bit 2: "regard maximum deceleration" (cleared while we command braking).
 SPEED_MODE_MAX_DECEL = 0b100
-#: Cap of :attr:`SumoSource.n_steps` when neither the config nor the ``.sumocfg`` gives an end
-#: (the run then ends when no vehicle is left) [s of simulated time].
-UNBOUNDED_END = 86400.0
 #: Steps between two checks for vehicles that left without an event (bounded memory).
 SWEEP_STEPS = 1000
-
-
-class SumoError(AccFusionError, RuntimeError):
-    """SUMO could not start, failed during the run, or a second simulation was opened."""
-
-
-@dataclass(frozen=True)
-class SumoConfig:
-    """Settings of a :class:`SumoSource` (validated on construction; SI units).
-
-    Attributes:
-        sumocfg: path of a ``.sumocfg`` file (any user file; bundled ones are resolved by the
-            caller).
-        end: simulated seconds to run from the begin time; ``None``: the ``.sumocfg``'s end
-            (and if it has none, until no vehicle is left, at most :data:`UNBOUNDED_END`).
-        penetration: fraction of vehicles equipped with FCW, in [0, 1]; 1.0.
-        seed: seed of SUMO (``--seed``) and of the equipped / inattentive / hazard draws; 0.
-        capacity: maximum number of simultaneously tracked equipped vehicles (pair slots, the
-            N of every array); 1024.
-        step_length: simulation step [s], in (0, 1], overriding the ``.sumocfg``'s; ``None``
-            keeps it (FCW wants 0.05-0.1 s).
-        hazard_rate: injected lead-vehicle emergency braking events per vehicle-hour; 0.
-        hazard_decel: deceleration of an injected emergency braking [m/s²]; 8.0.
-        hazard_duration: duration of an injected emergency braking [s]; 3.0.
-        inattentive: fraction of equipped drivers with a long reaction, in [0, 1]; 0.
-        inattentive_action_step: SUMO action step length of inattentive drivers [s]; 1.5.
-        lookahead: leaders farther than this are not reported [m]; 250 (long-range radar).
-        collision_action: SUMO's ``--collision.action``: ``"remove"`` (default), ``"warn"``
-            or ``"teleport"``.
-        gui: run ``sumo-gui`` through TraCI (needs a display); False.
-        ssm: equip vehicles with SUMO's SSM device (TTC, default 50 m range) for the
-            cross-check of :meth:`SumoSource.ssm_min_ttc`; False.  SUMO builds devices when
-            a vehicle is loaded, before the equipped draw, so every vehicle carries one
-            (slower) and only the equipped ones are read; the dynamics are unchanged.
-        extra_args: further SUMO command-line options, e.g. ``("--lateral-resolution",
-            "0.8")``; ().
-        native: read the vehicles with the compiled reader of :mod:`acc_fusion.truth.sumo.native`
-            (built on first use; the same values, in about 0.4 of the time), falling back to
-            libsumo's Python functions with a warning where it cannot be built; True.
-            Without effect with ``gui`` (TraCI).
-    """
-
-    sumocfg: str
-    end: float | None = None
-    penetration: float = 1.0
-    seed: int = 0
-    capacity: int = 1024
-    step_length: float | None = None
-    hazard_rate: float = 0.0
-    hazard_decel: float = 8.0
-    hazard_duration: float = 3.0
-    inattentive: float = 0.0
-    inattentive_action_step: float = 1.5
-    lookahead: float = 250.0
-    collision_action: str = "remove"
-    gui: bool = False
-    ssm: bool = False
-    extra_args: tuple[str, ...] = ()
-    native: bool = True
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.sumocfg, (str, os.PathLike)) or not str(self.sumocfg).strip():
-            raise ConfigError(f"sumocfg must be the path of a .sumocfg file, got {self.sumocfg!r}")
-        object.__setattr__(self, "sumocfg", os.fspath(self.sumocfg))
-        if self.end is not None:
-            object.__setattr__(self, "end", check_range("end", self.end, 0.0, lo_open=True))
-        check_range("penetration", self.penetration, 0.0, 1.0)
-        for name in ("seed", "capacity"):
-            value = getattr(self, name)
-            low = 1 if name == "capacity" else 0
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise ConfigError(f"{name} must be an integer >= {low}, got {value!r}")
-        if self.seed >= 2**31:
-            raise ConfigError(f"seed must be < 2**31 (SUMO's --seed), got {self.seed!r}")
-        if self.step_length is not None:
-            check_range("step_length", self.step_length, 0.0, 1.0, lo_open=True)
-        check_range("hazard_rate", self.hazard_rate, 0.0, math.inf, hi_open=True)
-        check_range("hazard_decel", self.hazard_decel, 0.0, 100.0, lo_open=True)
-        check_range(
-            "hazard_duration", self.hazard_duration, 0.0, math.inf, lo_open=True, hi_open=True
-        )
-        check_range("inattentive", self.inattentive, 0.0, 1.0)
-        check_range(
-            "inattentive_action_step", self.inattentive_action_step, 0.0, 10.0, lo_open=True
-        )
-        check_range("lookahead", self.lookahead, 0.0, math.inf, lo_open=True, hi_open=True)
-        check_choice("collision_action", self.collision_action, COLLISION_ACTIONS)
-        for name in ("gui", "ssm", "native"):
-            if not isinstance(getattr(self, name), bool):
-                raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        args = self.extra_args
-        if isinstance(args, str) or not all(isinstance(a, str) for a in args):
-            raise ConfigError(f"extra_args must be a list of strings, got {args!r}")
-        object.__setattr__(self, "extra_args", tuple(args))
-
-
-# ---------------------------------------------------------------- checks before starting SUMO
-def _option_files(root: ET.Element, option: str, base: Path) -> list[Path]:
-    """Files named by a ``.sumocfg`` option (``<net-file value="a,b"/>``), relative to it."""
-    files: list[Path] = []
-    for node in root.iter(option):
-        value = node.get("value", "")
-        for name in value.replace(",", " ").split():
-            path = Path(os.path.expandvars(os.path.expanduser(name)))
-            files.append(path if path.is_absolute() else base / path)
-    return files
-
-
-def check_sumocfg(path: str | os.PathLike, extra_args: Sequence[str] = ()) -> Path:
-    """Check that ``path`` is a readable SUMO configuration whose input files exist.
-
-    Checks, each failing with one :class:`~acc_fusion.core.errors.ConfigError` naming the file:
-    the file exists, is XML with a ``<configuration>`` root, names a ``net-file`` (unless
-    ``extra_args`` gives ``-n``/``--net-file``), and every ``net-file``, ``route-files`` and
-    ``additional-files`` entry exists.  Returns the absolute path.
-    """
-    cfg = Path(path).expanduser()
-    if not cfg.is_file():
-        what = "is a directory" if cfg.is_dir() else "does not exist"
-        raise ConfigError(
-            f"SUMO configuration {str(cfg)!r} {what}; give the path of a .sumocfg file"
-        )
-    try:
-        root = ET.parse(cfg).getroot()
-    except (ET.ParseError, OSError) as exc:
-        raise ConfigError(f"SUMO configuration {str(cfg)!r} is not valid XML ({exc})") from None
-    if root.tag not in ("configuration", "sumoConfiguration"):
-        raise ConfigError(
-            f"SUMO configuration {str(cfg)!r} must have a <configuration> (or "
-            f"<sumoConfiguration>) root element, got <{root.tag}>"
-        )
-    base = cfg.resolve().parent
-    nets = _option_files(root, "net-file", base)
-    if not nets and not {"-n", "--net-file"} & set(extra_args):
-        raise ConfigError(f"SUMO configuration {str(cfg)!r} names no net-file")
-    for option in ("net-file", "route-files", "additional-files"):
-        for file in _option_files(root, option, base):
-            if not file.is_file():
-                raise ConfigError(
-                    f"the {option} {str(file)!r} named in SUMO configuration {str(cfg)!r} "
-                    "does not exist"
-                )
-    return cfg.resolve()
 
 
 def sumo_command(
@@ -1022,114 +873,6 @@ class SumoSource(SlotSource):
         self._frame = self._maker.make(
             self._t, slots, speed, dists, codes, self._news, others, accel
         )
-
-
-class FrameMaker:
-    r"""The :class:`TruthFrame` of each step of a SUMO source, from the values read at that
-    step for the occupied slots (:meth:`SumoSource._fill`) and what the frames need from
-    earlier steps: each slot's ``minGap`` and SUMO's acceleration of its vehicle, read once
-    when the vehicle takes the slot, and each slot's speed at the previous step.  A
-    :class:`SumoSource` makes its frames with one; the parent process of a
-    :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` makes them with another, of
-    the values SUMO's process sends (so that process does not make frames).
-
-    Args:
-        n_pairs: number of slots N.
-        dt: simulation step [s].
-        lookahead: leaders farther than this are not reported [m].
-    """
-
-    def __init__(self, n_pairs: int, dt: float, lookahead: float) -> None:
-        self.n_pairs, self.dt, self.lookahead = n_pairs, dt, lookahead
-        self._min_gap = np.zeros(n_pairs)
-        self._new_accel = np.full(n_pairs, np.nan)  # SUMO's, for the slots taken at this step
-        self._prev_speed = np.zeros(n_pairs)
-
-    def make(
-        self,
-        t: float,
-        slots: np.ndarray,
-        speed: np.ndarray,
-        dists: np.ndarray,
-        codes: np.ndarray,
-        news: dict[int, tuple[float, float]],
-        others: dict[int, tuple[float, float]],
-        accel: np.ndarray | None = None,
-    ) -> TruthFrame:
-        """The frame at time ``t`` of the vehicles in ``slots`` (ascending), of their
-        ``speed``, their leader's distance ``dists`` and code ``codes``
-        (:meth:`SumoSource._set_code`; ``-1``: none) as :func:`_frame_arrays` takes them, the
-        slots taken at this step (``news``: slot to the vehicle's minGap and acceleration)
-        and the speed and acceleration of the leaders that hold no slot (``others``, by
-        position in ``slots``).  ``accel``: ``(N,)`` accelerations read for every vehicle
-        (TraCI), instead of those of ``news`` and the speeds' differences."""
-        for slot, (min_gap, new_accel) in news.items():  # usually none
-            self._min_gap[slot], self._new_accel[slot] = min_gap, new_accel
-        block, leader, other = _frame_arrays(
-            self.n_pairs,
-            slots,
-            speed,
-            self._new_accel if accel is None else accel,
-            self._prev_speed,
-            self.dt,
-            dists,
-            codes,
-            self._min_gap,
-            self.lookahead,
-        )
-        if other.size:
-            lead = [others[i] for i in other.tolist()]
-            at = slots[other]
-            block[3, at] = [v for v, _ in lead]
-            block[4, at] = [a for _, a in lead]
-        self._prev_speed = block[0].copy()
-        if news:
-            self._new_accel[list(news)] = np.nan
-        return TruthFrame.from_arrays(t, *block[:5], leader, lateral_offset=block[5])
-
-
-@njit(cache=True)
-def _frame_arrays(
-    n, slots, speed, accel, prev_speed, dt, dists, codes, min_gap, lookahead
-):  # pragma: no cover - compiled
-    r"""The ``(N,)`` arrays of a frame from the values read for the vehicles in ``slots``.
-
-    Per vehicle ``i`` in slot ``s = slots[i]``: its ``speed[i]``; its acceleration
-    ``accel[s]`` where SUMO's was read (NaN elsewhere), else
-    :math:`(v_k - v_{k-1})/\Delta t` from ``prev_speed[s]`` (SUMO's ``getAcceleration``
-    exactly); its leader, of code ``codes[i]`` (:meth:`SumoSource._set_code`: integer id and
-    slot; ``-1``: none), at the bumper-to-bumper gap ``dists[i] + min_gap[s]``
-    (``getLeader``'s distance plus the follower's ``minGap``), kept up to ``lookahead``,
-    whose speed and acceleration are those of its slot.  Empty slots: speed and
-    acceleration 0, the rest NaN and leader ``-1``.  Returns the rows ``ego_speed,
-    ego_accel, gap, lead_speed, lead_accel, lateral_offset`` (0) of one ``(6, N)`` block, the
-    ``leader_id`` and the positions ``i`` whose kept leader has no slot (an unequipped
-    vehicle, whose speed and acceleration the caller fills in).
-    """
-    block = np.empty((6, n))
-    block[:2] = 0.0
-    block[2:5] = np.nan
-    block[5] = 0.0
-    ego_v, ego_a, gap, lead_v, lead_a = block[0], block[1], block[2], block[3], block[4]
-    leader = np.full(n, -1, dtype=np.int64)
-    for i in range(slots.size):
-        s = slots[i]
-        ego_v[s] = speed[i]
-        a = accel[s]
-        ego_a[s] = a if not np.isnan(a) else (speed[i] - prev_speed[s]) / dt
-    other = np.empty(slots.size, dtype=np.intp)
-    k = 0
-    for i in range(slots.size):
-        s, g, code = slots[i], dists[i] + min_gap[slots[i]], codes[i]
-        if code >= 0 and g <= lookahead:
-            leader[s], gap[s] = code // (n + 1), g
-            j = code % (n + 1) - 1
-            if j >= 0:
-                lead_v[s], lead_a[s] = ego_v[j], ego_a[j]
-            else:
-                other[k] = i
-                k += 1
-    return block, leader, other[:k]
 
 
 def _raw(api: Any, name: str, public: Any) -> Any:
