@@ -395,3 +395,29 @@ SCENARIOS: dict[str, Manoeuvre] = {
     **{name: Manoeuvre(cls, partial(_build_one, name)) for name, (cls, _) in _BUILDERS.items()},
     "random": Manoeuvre(RandomSuiteParams, _build_random),
 }
+
+
+def _ramp(x, v, target, rate, dt):
+    """Exact motion over ``dt`` toward speed ``target`` at ``|a| = rate``, then holding it."""
+    dv = target - v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reached = rate * dt >= np.abs(dv)
+        tau = np.where(reached, np.abs(dv) / np.where(rate > 0, rate, 1.0), dt)
+    a = np.sign(dv) * rate
+    x_new = x + v * dt + 0.5 * a * tau**2 + a * tau * (dt - tau)
+    return x_new, np.where(reached, target, v + a * dt)
+
+
+def _ranges_table() -> str:
+    """The RST table of :data:`RANDOM_RANGES` appended to :func:`random_suite`'s docstring."""
+    rows = [("type", "parameter", "range", "unit", "why")]
+    for kind, ranges in RANDOM_RANGES.items():
+        for field_name, (lo, hi, unit, why) in ranges.items():
+            rows.append((kind, field_name, f"{lo:.4g} - {hi:.4g}", unit, why))
+    widths = [max(len(r[i]) for r in rows) for i in range(5)]
+    rule = "    " + "  ".join("=" * w for w in widths)
+    lines = [
+        "    " + "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+        for r in rows
+    ]
+    return "\n".join([rule, lines[0], rule, *lines[1:], rule, ""])

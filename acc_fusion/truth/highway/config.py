@@ -1,5 +1,20 @@
 """highway-env as a truth source: loading it (an optional dependency), the run's settings
-(:class:`HighwayConfig`) and the environment they make (:func:`make_env`)."""
+(:class:`HighwayConfig`) and the environment they make (:func:`make_env`).
+
+Episodes
+    The source runs ``episodes`` highway-env episodes one after another; episode *k* is
+    ``env.reset(seed=seed + k)``, so FCW off and FCW on runs see the same initial traffic.  An
+    episode ends when highway-env terminates it (the controlled vehicle crashed; in
+    ``merge-v0`` also when it has passed the merge) or after ``duration`` seconds.  That end
+    frame is delivered (with its collision flags); the next :meth:`~HighwaySource.advance`
+    starts the next episode and flags its slots in :attr:`~HighwaySource.reassigned`, so the
+    FCW loop resets their filters, warning logic and driver.  Time :attr:`~HighwaySource.t`
+    runs on across episodes (one step per reset), so the metrics see one timeline.
+
+Reproducibility
+    highway-env draws everything from ``env.np_random``, seeded by ``env.reset(seed=...)``; the
+    source draws nothing, so a run is reproducible from its config.
+"""
 
 from __future__ import annotations
 

@@ -16,17 +16,8 @@ Slots
     ``controlled_vehicles``, 1 by default).  ``pairs="all"``: one slot per vehicle on the road,
     the controlled ones first, so one simulation yields many pairs.  N (the number of slots)
     is fixed by the first episode; a later episode with fewer vehicles leaves the last slots
-    inactive, one with more tracks only the first N (a warning is issued once).
-
-Episodes
-    The source runs ``episodes`` highway-env episodes one after another; episode *k* is
-    ``env.reset(seed=seed + k)``, so FCW off and FCW on runs see the same initial traffic.  An
-    episode ends when highway-env terminates it (the controlled vehicle crashed; in
-    ``merge-v0`` also when it has passed the merge) or after ``duration`` seconds.  That end
-    frame is delivered (with its collision flags); the next :meth:`~HighwaySource.advance`
-    starts the next episode and flags its slots in :attr:`~HighwaySource.reassigned`, so the
-    FCW loop resets their filters, warning logic and driver.  Time :attr:`~HighwaySource.t`
-    runs on across episodes (one step per reset), so the metrics see one timeline.
+    inactive, one with more tracks only the first N (a warning is issued once).  Episodes
+    and reproducibility: see :mod:`acc_fusion.truth.highway.config`.
 
 Stepping at the simulation frequency
     highway-env's ``env.step`` advances ``simulation_frequency / policy_frequency`` simulation
@@ -82,10 +73,6 @@ Closed loop
     driver braked to: a driver who braked for a warning does not speed up into the same
     leader again (our assumption; highway-env's controlled vehicle would otherwise return to
     its target speed and close in again, warning after warning).
-
-Reproducibility
-    highway-env draws everything from ``env.np_random``, seeded by ``env.reset(seed=...)``; the
-    source draws nothing, so a run is reproducible from its config.
 
 Sources: highway-env 1.12 (``AbstractEnv._simulate``, ``Road.neighbour_vehicles``,
 ``Vehicle.step``, ``RoadObject.handle_collisions``, ``EnvViewer``), verified against the
