@@ -158,3 +158,10 @@ def test_output_files_respect_the_umask(tmp_path, mask):
     finally:
         os.umask(old)
     assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask
+
+
+def test_the_filters_step_is_derived_from_dt():
+    cfg = from_mapping(SimConfig, {"dt": 0.1})
+    assert cfg.fusion.filter.dt == 0.1
+    with pytest.raises(ConfigError, match="fusion.filter.dt is the simulation step dt"):
+        from_mapping(SimConfig, {"dt": 0.1, "fusion": {"filter": {"dt": 0.2}}})

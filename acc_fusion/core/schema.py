@@ -44,6 +44,8 @@ class FieldInfo:
         owner: ``module.Class`` that declares the field (where its default comes from).
         doc: its description from the owner's ``Attributes:`` docstring section.
         unit: the unit in square brackets in that description, or ``""``.
+        derived_from: the field of the root config this one is derived from (its dataclass
+            field's ``metadata["derived_from"]``), or ``""``.
     """
 
     path: str
@@ -53,6 +55,7 @@ class FieldInfo:
     owner: str
     doc: str
     unit: str
+    derived_from: str = ""
 
 
 def field_docs(cls: type) -> dict[str, str]:
@@ -124,7 +127,14 @@ def fields(cls: type, prefix: str = "") -> list[FieldInfo]:
         path = f"{prefix}{f.name}"
         out.append(
             FieldInfo(
-                path, f.name, hints[f.name], _default(f), _owner(cls, f.name), doc, unit_of(doc)
+                path,
+                f.name,
+                hints[f.name],
+                _default(f),
+                _owner(cls, f.name),
+                doc,
+                unit_of(doc),
+                f.metadata.get("derived_from", ""),
             )
         )
         inner = _dataclass_of(hints[f.name])
@@ -246,7 +256,13 @@ def describe(config: Any, given: Mapping[str, Any] | None = None, source: str = 
                 "key": f.path,
                 "value": _json_value(value),
                 "unit": f.unit,
-                "origin": source if supplied else f"default: {f.owner}",
+                "origin": (
+                    f"derived from {f.derived_from}"
+                    if f.derived_from
+                    else source
+                    if supplied
+                    else f"default: {f.owner}"
+                ),
                 "doc": f.doc,
             }
         )

@@ -28,7 +28,8 @@ class FilterConfig:
     """Local-filter model, shared by every method.
 
     Attributes:
-        dt: step of the estimation loop [s] (default 0.05: the radar's 20 Hz).
+        dt: step of the estimation loop [s] (default 0.05: the radar's 20 Hz); in a
+            :class:`~acc_fusion.sim.closed_loop.SimConfig` it is derived from the config's ``dt``.
         jerk_std: relative-jerk standard deviation :math:`\\sigma_j` of the constant-
             acceleration model [m/s³] (default 2.0: ordinary driving, braking onsets of a few
             m/s³; see :mod:`acc_fusion.core.motion`).
@@ -41,7 +42,7 @@ class FilterConfig:
             (default 0: no input, or a perfect one).
     """
 
-    dt: float = 0.05
+    dt: float = field(default=0.05, metadata={"derived_from": "dt"})
     jerk_std: float = 2.0
     init_accel_std: float = 3.0
     max_coast: float = 1.0

@@ -28,7 +28,7 @@ from acc_fusion.core.slots import Extent, PairState, resize_all
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
-from acc_fusion.fusion.config import FUSION_METHODS, FusionConfig
+from acc_fusion.fusion.config import FUSION_METHODS, FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.metrics.summary import FCWSummary
@@ -60,7 +60,7 @@ class SimConfig:
             randomised Monte Carlo suite).
         runs: number of runs (batched).
         seed: seed of truth, sensor noise and driver draws.
-        dt: simulation and filter step [s].
+        dt: simulation step [s]; the filters' step ``fusion.filter.dt`` is derived from it.
         duration: run length [s] (``None``: the scenario's own).
         methods: compared methods (sensor names or fusion methods).
         drive: method whose warnings the driver reacts to (closed loop); ``None``: open loop.
@@ -99,6 +99,15 @@ class SimConfig:
         if not isinstance(self.seed, int) or not 0 <= self.seed < 2**63:
             raise ConfigError(f"seed must be a whole number in [0, 2**63), got {self.seed!r}")
         check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
+        # The filters' step is the simulation's: derived here, once, not set twice.
+        step = self.fusion.filter.dt
+        if step != self.dt and step != FilterConfig.dt:
+            raise ConfigError(
+                f"fusion.filter.dt is the simulation step dt ({self.dt:g} s), derived from it; "
+                f"set dt instead of fusion.filter.dt = {step!r}"
+            )
+        filters = replace(self.fusion.filter, dt=self.dt)
+        object.__setattr__(self, "fusion", replace(self.fusion, filter=filters))
         if self.duration is not None:
             check_range("duration", self.duration, 0.0, 1e6, lo_open=True)
         object.__setattr__(self, "methods", tuple(self.methods))
