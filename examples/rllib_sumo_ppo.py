@@ -1,76 +1,100 @@
-"""Train a warning policy with RLlib's PPO on SUMO traffic, two env runners in parallel.
+"""Train a warning policy with RLlib's PPO in SUMO traffic, on two env runners.
 
-Each RLlib env runner is a process with its own embedded SUMO (libsumo allows one simulation
-per process and is not thread-safe: that is why runners, never threads); each episode is one
-equipped vehicle of that simulation and its leader.  Needs the ``rllib`` and ``sumo`` extras
-(``pip install 'acc_fusion[rllib,sumo]'``).  On a cluster, point ``ray.init`` at it and raise
-``--runners``.  Run it:
+The environment is ``acc_fusion/CollisionWarning-v0`` with ``source="sumo"``: an episode
+follows one equipped vehicle of a running SUMO simulation (a bundled network) and the policy
+chooses the warning its driver hears.  libsumo holds one simulation per process, so the SUMO
+source scales out with processes, never threads: RLlib's env runners are Ray actors, each a
+process of its own with its own libsumo (and each seeded differently, so each runs its own
+traffic).  This uses RLlib's new API stack (RLModule, Learner, EnvRunner, ConnectorV2), the
+default since Ray 2.40; it needs the ``rllib`` extra (RLlib and torch) and the ``sumo`` one
+(``pip install 'acc_fusion[rllib,sumo]'``).  Run it:
 
-    python examples/rllib_sumo_ppo.py                      # 2 iterations, a few minutes
-    python examples/rllib_sumo_ppo.py --iterations 50 --net motorway
+    python examples/rllib_sumo_ppo.py                      # 5 iterations of 2 000 steps
+    python examples/rllib_sumo_ppo.py --iterations 2 --batch 200 --episode-steps 50
+    python examples/rllib_sumo_ppo.py --net motorway --runners 4 --iterations 50
+
+It prints, per training iteration, the steps sampled so far and the mean return of the
+episodes finished in that iteration (the reward of :class:`acc_fusion.envs.options.RewardConfig`:
+penalties for false alarms, misses and collisions), then the process of each env runner.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
+
+import gymnasium as gym
+import ray
+from ray.rllib.algorithms.ppo import PPOConfig
+from ray.tune.registry import register_env
+
+ENV_ID = "acc_fusion/CollisionWarning-v0"
 
 
-def make_env(env_config: dict):
-    """The env creator each runner calls: importing acc_fusion registers the environment."""
-    import gymnasium as gym
+def make_sumo_env(env_config: dict) -> gym.Env:
+    """The collision-warning environment on SUMO traffic (called in every env runner)."""
+    import acc_fusion  # noqa: F401  (registers the environment in the env runner's process)
 
-    import acc_fusion  # noqa: F401
+    return gym.make(ENV_ID, source="sumo", **env_config)
 
-    return gym.make("acc_fusion/CollisionWarning-v0", source="sumo", **env_config)
+
+def sumo_process(runner) -> tuple[int, int]:
+    """The process id of an env runner and the SUMO simulations its environment started."""
+    env = runner.env.unwrapped.envs[0].unwrapped
+    return os.getpid(), env.sumo_starts
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--iterations", type=int, default=2, help="training iterations")
-    parser.add_argument("--runners", type=int, default=2, help="env runner processes")
-    parser.add_argument("--net", default="ring", help="bundled SUMO network (default ring)")
-    parser.add_argument("--batch", type=int, default=400, help="steps per training batch")
-    parser.add_argument(
-        "--episode-steps", type=int, default=200, help="steps per episode at most (default 200)"
-    )
+    parser.add_argument("--iterations", type=int, default=5, help="training iterations (5)")
+    parser.add_argument("--batch", type=int, default=2000, help="steps per iteration (2000)")
+    parser.add_argument("--episode-steps", type=int, default=400, help="steps per episode (400)")
+    parser.add_argument("--net", default="ring", help="bundled SUMO network (ring)")
+    parser.add_argument("--warmup", type=float, default=30.0, help="SUMO warm-up [s] (30)")
+    parser.add_argument("--runners", type=int, default=2, help="env runner processes (2)")
+    parser.add_argument("--seed", type=int, default=0, help="seed (env runner i: seed + i)")
     args = parser.parse_args(argv)
 
-    import ray
-    from ray.rllib.algorithms.ppo import PPOConfig
-    from ray.tune.registry import register_env
-
-    ray.init(num_cpus=args.runners + 1, include_dashboard=False, log_to_driver=False)
-    register_env("acc_fusion_sumo", make_env)
+    register_env("acc_fusion_sumo", make_sumo_env)
     config = (
         PPOConfig()
         .environment(
             "acc_fusion_sumo",
             env_config={
-                "sumo": {"net": args.net, "warmup": 0},
+                "sumo": {"net": args.net, "warmup": args.warmup},
                 "max_episode_steps": args.episode_steps,
             },
         )
+        .framework("torch")
+        # Each env runner is a Ray actor: a process of its own, with one SUMO simulation.
         .env_runners(num_env_runners=args.runners, num_envs_per_env_runner=1)
         .training(
             train_batch_size_per_learner=args.batch,
             minibatch_size=min(128, args.batch),
-            num_epochs=2,
+            num_epochs=4,
+            gamma=0.97,
             lr=3e-4,
         )
-        .learners(num_learners=0)
-        .debugging(seed=0)
+        .debugging(seed=args.seed)
     )
-    algo = config.build_algo()
+    # A local Ray with a logical CPU for the main process (which holds the learner) and one
+    # per env runner; on a cluster, ray.init(address=...) instead.
+    ray.init(num_cpus=args.runners + 1, include_dashboard=False, log_to_driver=False)
     try:
-        for i in range(args.iterations):
-            result = algo.train()
-            runners = result["env_runners"]
+        algo = config.build_algo()
+        for i in range(1, args.iterations + 1):
+            runners = algo.train()["env_runners"]
+            mean = runners.get("episode_return_mean", math.nan)
             print(
-                f"iteration {i + 1}: {runners['num_env_steps_sampled_lifetime']} steps, "
-                f"episode return mean {runners.get('episode_return_mean', float('nan')):.2f}"
+                f"iteration {i}: {int(runners['num_env_steps_sampled_lifetime'])} steps "
+                f"sampled, {int(runners.get('num_episodes', 0))} episodes done, "
+                f"mean return {mean:.2f}"
             )
-    finally:
+        runners = algo.env_runner_group.foreach_env_runner(sumo_process, local_env_runner=False)
+        print(f"main process {os.getpid()}; env runners (process, SUMO starts): {runners}")
         algo.stop()
+    finally:
         ray.shutdown()
 
 

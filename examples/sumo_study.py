@@ -18,8 +18,8 @@ import argparse
 
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.studies.traffic import sumo_study
+from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import bundled_nets, resolve_sumocfg
-from acc_fusion.truth.sumo.source import SumoConfig
 
 
 def main(argv: list[str] | None = None) -> None:
