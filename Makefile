@@ -23,7 +23,7 @@ test: $(STAMP)
 	$(BIN)/ruff check acc_fusion scripts tests examples docs/gen
 	$(BIN)/ruff format --check acc_fusion scripts tests examples docs/gen
 	$(BIN)/lint-imports
-	DISABLE_MKDOCS_2_WARNING=true $(BIN)/mkdocs build --strict --quiet
+	DISABLE_MKDOCS_2_WARNING=true NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 	$(BIN)/pytest -q
 
 test-fast: $(STAMP)
@@ -41,7 +41,7 @@ bench: $(STAMP)
 	$(BIN)/python scripts/bench_filters.py --quick
 
 docs: $(STAMP)
-	DISABLE_MKDOCS_2_WARNING=true $(BIN)/mkdocs serve
+	DISABLE_MKDOCS_2_WARNING=true NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache site

@@ -1,7 +1,7 @@
 """Benchmark: the cost of the FCW pipeline on top of a SUMO traffic simulation.
 
 Runs the same SUMO scenario (the bundled motorway, >= 500 vehicles at peak, with the SUMO
-options of :func:`acc_fusion.truth.sumo.source.sumo_command`) in four ways, each in a fresh process
+options of :func:`acc_fusion.truth.sumo.launch.sumo_command`) in four ways, each in a fresh process
 (libsumo allows one simulation per process), one after the other: ``--repeat`` (3) pairs of a
 bare run and a pipeline run back to back, then one reads run and one source run:
 
@@ -59,8 +59,8 @@ def _bare(sumocfg: str, end: float, reads: bool = False) -> tuple[float, int]:
     import numpy as np
 
     from acc_fusion.truth.sumo.config import SumoConfig
+    from acc_fusion.truth.sumo.launch import sumo_command
     from acc_fusion.truth.sumo.native import sumo_reader
-    from acc_fusion.truth.sumo.source import sumo_command
 
     config = SumoConfig(sumocfg=sumocfg, end=end)
     libsumo.start([*sumo_command(config), "--end", str(end)])

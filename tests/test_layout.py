@@ -31,12 +31,6 @@ STAGES = (
 #: stay together).
 MAX_LINES = 500
 KERNEL_SET = "numba kernels that must stay together"
-#: Modules still over the limit, each with what is left to do (an open item, not an exemption:
-#: the test fails if one of them shrinks under the limit and stays listed, or another grows).
-PENDING_SPLIT = {
-    "acc_fusion/truth/sumo/source.py": "SumoSource (a 600-line class): its slot bookkeeping and "
-    "its hazards and driver control are still to be cut out of the class",
-}
 
 
 def _modules() -> list[Path]:
@@ -120,4 +114,4 @@ def test_long_modules_say_why():
         doc = ast.get_docstring(ast.parse(text)) or ""
         if n > MAX_LINES and KERNEL_SET not in " ".join(doc.split()):
             long.append(str(path.relative_to(PACKAGE.parent)))
-    assert sorted(long) == sorted(PENDING_SPLIT)
+    assert long == []

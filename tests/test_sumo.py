@@ -25,10 +25,11 @@ libsumo = pytest.importorskip("libsumo")
 
 import acc_fusion.sim.closed_loop as fcw  # noqa: E402
 import acc_fusion.truth.sumo.background as background_mod  # noqa: E402
-import acc_fusion.truth.sumo.source as sumo_mod  # noqa: E402
 from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.core.levels import WARNING_COLORS  # noqa: E402
 from acc_fusion.core.slots import Extent  # noqa: E402
 from acc_fusion.sim.closed_loop import SimConfig, simulate  # noqa: E402
+from acc_fusion.truth.sumo import launch  # noqa: E402
 from acc_fusion.truth.sumo.background import BackgroundSumoSource, _Outbox  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError, check_sumocfg  # noqa: E402
 from acc_fusion.truth.sumo.ring import COUNTERS  # noqa: E402
@@ -373,14 +374,14 @@ def test_traci_path_gives_the_same_frames(road, monkeypatch):
                 out.append(np.concatenate([f.leader_id, np.nan_to_num(f.gap), f.ego_accel]))
         return np.array(out)
 
-    real = sumo_mod._sumo_binary
-    monkeypatch.setattr(sumo_mod, "_sumo_binary", lambda gui: real(False))
-    monkeypatch.setattr(sumo_mod, "_has_display", lambda: True)
+    real = launch.sumo_binary
+    monkeypatch.setattr(launch, "sumo_binary", lambda gui: real(False))
+    monkeypatch.setattr(launch, "has_display", lambda: True)
     np.testing.assert_allclose(frames(True), frames(False), atol=1e-9)
 
 
 def test_gui_without_display_is_a_clear_error(road, monkeypatch):
-    monkeypatch.setattr(sumo_mod, "_has_display", lambda: False)
+    monkeypatch.setattr(launch, "has_display", lambda: False)
     with pytest.raises(ConfigError, match="gui needs a display"):
         SumoSource(config(road, gui=True))
 
@@ -413,7 +414,7 @@ def test_real_sumo_gui_colours_vehicles_by_warning_level(road, virtual_display):
     """The real sumo-gui (on a virtual display) runs the source and shows warning colours."""
     cfg = config(road, end=10.0, seed=3, penetration=1.0, gui=True)
     with SumoSource(cfg) as src:
-        assert os.path.basename(sumo_mod._sumo_binary(True)).startswith("sumo-gui")
+        assert os.path.basename(launch.sumo_binary(True)).startswith("sumo-gui")
         levels = np.arange(src.n_pairs) % 3
         while not src.done and src.active.sum() < 3:
             src.advance()
@@ -423,7 +424,7 @@ def test_real_sumo_gui_colours_vehicles_by_warning_level(road, virtual_display):
         for slot in np.flatnonzero(src.active)[:6]:
             vid = src.vehicle_ids[slot]
             colour = tuple(src._api.vehicle.getColor(vid))[:3]
-            assert colour == tuple(sumo_mod.WARNING_COLORS[levels[slot]])[:3]
+            assert colour == tuple(WARNING_COLORS[levels[slot]])[:3]
 
 
 # ---------------------------------------------------------------- background process

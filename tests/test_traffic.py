@@ -57,15 +57,16 @@ def test_gui_run_colours_vehicles_by_the_driving_methods_warning(monkeypatch):
     level at every step (TraCI; the plain ``sumo`` binary stands in for ``sumo-gui``)."""
     import numpy as np
 
-    import acc_fusion.truth.sumo.source as sumo_mod
+    from acc_fusion.core.levels import WARNING_COLORS
     from acc_fusion.sim.closed_loop import SimConfig
     from acc_fusion.studies.traffic import _run
+    from acc_fusion.truth.sumo import launch
     from acc_fusion.truth.sumo.config import SumoConfig
     from acc_fusion.truth.sumo.source import SumoSource
 
-    real = sumo_mod._sumo_binary
-    monkeypatch.setattr(sumo_mod, "_sumo_binary", lambda gui: real(False))
-    monkeypatch.setattr(sumo_mod, "_has_display", lambda: True)
+    real = launch.sumo_binary
+    monkeypatch.setattr(launch, "sumo_binary", lambda gui: real(False))
+    monkeypatch.setattr(launch, "has_display", lambda: True)
     shown = []
     paint = SumoSource.set_warning_colors
 
@@ -75,7 +76,7 @@ def test_gui_run_colours_vehicles_by_the_driving_methods_warning(monkeypatch):
         assert not source.active[m:].any()
         for slot in np.flatnonzero(source.active):
             colour = tuple(source._api.vehicle.getColor(source.vehicle_ids[slot]))
-            assert colour == sumo_mod.WARNING_COLORS[levels[slot]]
+            assert colour == WARNING_COLORS[levels[slot]]
         shown.append(np.asarray(levels)[source.active[:m]])
 
     monkeypatch.setattr(SumoSource, "set_warning_colors", record)

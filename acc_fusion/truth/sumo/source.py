@@ -8,17 +8,7 @@ drives (``frame()``, ``advance(ego_brake)``, ``t``, ``n_steps``, ``done``, ``act
 ``collided``, ``collision_speed``) plus ``reassigned`` and ``vehicle_ids``.
 
 Slots
-    A fraction ``penetration`` of the vehicles is *equipped* with FCW (drawn per vehicle from
-    the seed).  Each equipped vehicle present in the network occupies one of ``capacity``
-    *slots*, the pair axis N of every array (``N = capacity``, fixed for the whole run).  A
-    slot is freed when its vehicle arrives, leaves the network, is removed after a collision
-    or starts a teleport; the next vehicle put in it is flagged in :attr:`SumoSource.reassigned`
-    at that step, so the FCW loop resets its per-slot state (filters, warning logic,
-    driver).  A slot freed at a step is reused at the next step at the earliest, so that a
-    collision stays visible in :attr:`SumoSource.collided` for at least one frame.  Empty
-    slots have ``leader_id = -1``, ``ego_speed = 0`` and are not :attr:`SumoSource.active`.
-    When more equipped vehicles are present than slots, the extra ones wait (a warning is
-    issued once) and take the first slot that frees.
+    One per equipped vehicle in the network (the pair axis N): :mod:`acc_fusion.truth.sumo.slots`.
 
 Truth of a slot (``(N,)`` arrays of the :class:`~acc_fusion.truth.frame.TruthFrame`)
     Ego speed and acceleration (SUMO's speed and acceleration of the last step); the leader
@@ -39,49 +29,18 @@ Truth of a slot (``(N,)`` arrays of the :class:`~acc_fusion.truth.frame.TruthFra
     target).
 
 Reading SUMO cheaply
-    Per step the source asks SUMO only for what changed (departed, arrived, teleporting,
-    colliding vehicles: per-vehicle Python work only for those) and, per equipped vehicle,
-    its speed and its leader; the acceleration is :math:`(v_k - v_{k-1})/\Delta t` from the
-    slot's previous speed, which is exactly SUMO's ``getAcceleration`` (checked to 0 on 5880
-    samples), so only vehicles new to a slot and unequipped leaders need more getters.  With
-    libsumo (in-process) the speeds and leaders come from the compiled reader of
-    :mod:`acc_fusion.truth.sumo.native` (libsumo's C++ functions, every vehicle in one call), else
-    from
-    direct calls to the SWIG functions: measured on a 3-lane
-    motorway with 524 vehicles (SUMO 1.28), subscribing speed, acceleration and leader cost
-    about 2 ms more per SUMO step plus 0.7 ms for ``getAllSubscriptionResults``, while the
-    direct calls cost about 0.5 ms.  Through TraCI (``gui``), where every call is a socket
-    round trip, the same values come from subscriptions (``VAR_SPEED``, ``VAR_ACCELERATION``
-    for every vehicle, ``VAR_LEADER`` with the lookahead as its parameter for the equipped
-    ones) and one ``getAllSubscriptionResults`` per step.  Both paths give identical frames.
+    Only what changed, the compiled reader where it builds: :mod:`acc_fusion.truth.sumo.reading`.
 
-Threats (so that false-alarm and miss rates mean something)
-    - *Lead-vehicle emergency braking*: events at ``hazard_rate`` per vehicle-hour (Poisson,
-      :math:`\lambda = r\, n_{\text{veh}}\, \Delta t / 3600` per step); a uniformly drawn
-      vehicle (equipped or not) brakes at ``hazard_decel`` for ``hazard_duration`` seconds
-      (commanded speed :math:`v_{k+1} = \max(v_k - a\,\Delta t, 0)` with SUMO's
-      deceleration limit lifted, its emergency deceleration raised to ``hazard_decel`` if
-      lower), then control returns to SUMO.  :meth:`SumoSource.inject_hazard` starts one on a
-      chosen vehicle.
-    - *Inattentive drivers*: a fraction ``inattentive`` of the equipped vehicles gets SUMO's
-      action step length (the driver's decision interval, SUMO's model of reaction time)
-      ``inattentive_action_step`` (1.5 s, Green 2000's "surprise" brake reaction) instead of
-      the simulation step.  SUMO's Krauss model assumes a reaction of ``tau`` (1 s) in its
-      safe speed, so these drivers can run into a braking leader.
-    - *Collisions happen*: SUMO runs with ``--collision.mingap-factor 0`` (only physical
-      contact counts), ``--collision.check-junctions true`` and ``--collision.action``
-      ``collision_action`` (``remove`` by default: both vehicles leave the network, which
-      ends the pair).  Collisions are read with ``simulation.getCollisions()``; the slot of
-      the *collider* (the vehicle that ran into another) is flagged :attr:`collided` with
-      the impact speed ``colliderSpeed - victimSpeed``.  The victim's slot is not flagged (a
-      vehicle rear-ended by another is no forward-collision failure).
-
-Closed loop
-    :meth:`SumoSource.advance` takes the brake request of each slot's driver [m/s²]: the
-    vehicle is commanded :math:`v_{k+1} = \max(v_k - a\,\Delta t, 0)` through ``setSpeed``
-    with SUMO's deceleration limit lifted (speed-mode bit 2 cleared; SUMO still never lets
-    it drive faster than its safe speed), and handed back (``setSpeed(-1)`` and the original
-    speed mode) at the first step without a request.
+Threats and the closed loop
+    Lead-vehicle emergency braking, inattentive drivers and the drivers' brake requests are
+    SUMO commands: :mod:`acc_fusion.truth.sumo.control`.  *Collisions happen*: SUMO runs with
+    ``--collision.mingap-factor 0`` (only physical contact counts),
+    ``--collision.check-junctions true`` and ``--collision.action`` ``collision_action``
+    (``remove`` by default: both vehicles leave the network, which ends the pair).  Collisions
+    are read with ``simulation.getCollisions()``; the slot of the *collider* (the vehicle that
+    ran into another) is flagged :attr:`collided` with the impact speed ``colliderSpeed -
+    victimSpeed``.  The victim's slot is not flagged (a vehicle rear-ended by another is no
+    forward-collision failure).
 
 One simulation per process
     libsumo embeds SUMO in the Python process and holds a single global simulation; starting
@@ -99,184 +58,44 @@ Reproducibility
     reproducible from its config, and (for the same traffic) a higher penetration equips a
     superset of the vehicles of a lower one.
 
-Sources: SUMO documentation (TraCI vehicle value retrieval and state change, speed mode bits,
-``simulation.getCollisions``, collision options, action step length); M. Green, "'How long
-does it take to stop?'", Transportation Human Factors 2(3):195-216, 2000 (1.5 s surprise
-reaction).  Verified against eclipse-sumo / libsumo 1.28: in libsumo the ``VAR_LEADER``
-subscription parameter is a plain float (TraCI's Python client expects ``("d", dist)``); the
-result is ``(leader_id, gap)`` with ``("", -1.0)`` when there is no leader (``None`` from the
-Python wrappers); the gap plus the follower's ``minGap`` equals the lane-position difference
+Sources: SUMO documentation (TraCI vehicle value retrieval, ``simulation.getCollisions``,
+collision options).  Verified against eclipse-sumo / libsumo 1.28: ``getLeader``'s result is
+``(leader_id, gap)``; the gap plus the follower's ``minGap`` equals the lane-position difference
 minus the leader's length; ``getLeader``'s distance is a *minimum* lookahead, hence the
 ``lookahead`` cut; collisions with action ``remove`` list both vehicles as arrived in the same
-step; ``setSpeed`` acts at every step even for a vehicle with a long action step length;
-stepping past the ``.sumocfg``'s end is allowed (the end is enforced here); a second
+step; stepping past the ``.sumocfg``'s end is allowed (the end is enforced here); a second
 ``libsumo.start`` silently replaces the running simulation.
 """
 
 from __future__ import annotations
 
-import bisect
 import heapq
 import math
 import os
 import shutil
-import sys
 import tempfile
-import warnings
 import weakref
 from collections.abc import Sequence
-from contextlib import contextmanager, nullcontext
-from dataclasses import dataclass
-from itertools import repeat
-from operator import itemgetter
+from contextlib import nullcontext
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.levels import WARNING_COLORS
-from acc_fusion.core.units import TIME_TOL
-from acc_fusion.core.validation import check_array, check_range
+from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.sumo import launch
 from acc_fusion.truth.sumo.config import UNBOUNDED_END, SumoConfig, SumoError, check_sumocfg
+from acc_fusion.truth.sumo.control import SumoControls, _Hazard
 from acc_fusion.truth.sumo.frames import FrameMaker
-from acc_fusion.truth.sumo.native import sumo_reader
-
-#: SUMO speed-mode bit 2: "regard maximum deceleration" (cleared while we command braking).
-SPEED_MODE_MAX_DECEL = 0b100
-#: Steps between two checks for vehicles that left without an event (bounded memory).
-SWEEP_STEPS = 1000
-
-
-def sumo_command(
-    config: SumoConfig, cfg_path: str | os.PathLike | None = None, ssm_file: str | None = None
-) -> list[str]:
-    """The SUMO command line of a :class:`SumoSource` with ``config``: the ``.sumocfg``
-    (``cfg_path``, by default ``config.sumocfg``) with the source's seed, collision and
-    step-length options, and the SSM device writing to ``ssm_file`` when ``config.ssm``.
-    The run length is not on it (the source stops stepping at its end time); a benchmark
-    that runs SUMO alone on the same scenario adds ``--end``.
-
-    >>> sumo_command(SumoConfig("motorway.sumocfg", seed=3))[1:5]
-    ['-c', 'motorway.sumocfg', '--seed', '3']
-    """
-    cmd = [
-        _sumo_binary(config.gui),
-        "-c", os.fspath(config.sumocfg if cfg_path is None else cfg_path),
-        "--seed", str(int(config.seed)),
-        "--no-step-log", "true",
-        "--no-warnings", "true",
-        "--duration-log.disable", "true",
-        "--collision.action", config.collision_action,
-        "--collision.mingap-factor", "0",
-        "--collision.check-junctions", "true",
-    ]  # fmt: skip
-    if config.step_length is not None:
-        cmd += ["--step-length", repr(float(config.step_length))]
-    if config.ssm:
-        cmd += [
-            "--device.ssm.probability", "1",
-            "--device.ssm.measures", "TTC",
-            "--device.ssm.file", ssm_file or os.devnull,
-        ]  # fmt: skip
-    if config.gui:
-        cmd += ["--start", "true", "--quit-on-end", "true"]
-    return cmd + list(config.extra_args)
-
-
-@contextmanager
-def _captured_stderr(sink: list[str]):
-    """Capture what SUMO writes to the process's stderr (fd 2) into ``sink``, then echo it."""
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, AttributeError, ValueError):  # no real fd 2 (embedded interpreters)
-        yield
-        return
-    with tempfile.TemporaryFile(mode="w+b") as tmp:
-        os.dup2(tmp.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            tmp.seek(0)
-            text = tmp.read().decode("utf-8", "replace")
-            sink.append(text)
-            if text:
-                sys.stderr.write(text)
-
-
-def _sumo_message(exc: BaseException, captured: Sequence[str]) -> str:
-    """SUMO's own error text: its ``Error:`` lines on stderr, else the exception's text."""
-    lines = [ln.strip() for text in captured for ln in text.splitlines() if ln.strip()]
-    errors = [ln.removeprefix("Error:").strip() for ln in lines if ln.startswith("Error")]
-    text = " ".join(errors) or " ".join(str(exc).split()) or type(exc).__name__
-    return text.rstrip(".")
-
-
-def _load_api(gui: bool) -> Any:
-    """The libsumo module (default) or the TraCI client module (``gui``)."""
-    try:
-        import sumo  # noqa: F401  (the eclipse-sumo wheel: sets SUMO_HOME)
-
-        if gui:
-            import traci as api
-        else:
-            import libsumo as api
-    except ImportError as exc:
-        raise ConfigError(
-            f"SUMO support needs eclipse-sumo and libsumo: pip install 'acc_fusion[sumo]' ({exc})"
-        ) from None
-    return api
-
-
-def _traci_errors(api: Any) -> tuple[type[BaseException], ...]:
-    """The exception classes SUMO raises through ``api`` (libsumo's and TraCI's)."""
-    import traci
-
-    found = {
-        getattr(module, name, None)
-        for module in (api, traci, traci.exceptions)
-        for name in ("TraCIException", "FatalTraCIError")
-    }
-    return tuple(c for c in found if isinstance(c, type) and issubclass(c, BaseException))
-
-
-def _sumo_binary(gui: bool) -> str:
-    """The ``sumo`` or ``sumo-gui`` executable of the eclipse-sumo wheel."""
-    import sumo
-
-    name = "sumo-gui" if gui else "sumo"
-    exe = Path(sumo.SUMO_HOME) / "bin" / (name + (".exe" if os.name == "nt" else ""))
-    if not exe.is_file():
-        found = shutil.which(name)
-        if found is None:
-            raise ConfigError(f"{name} was not found in the eclipse-sumo wheel ({exe}) nor on PATH")
-        return found
-    return str(exe)
-
-
-def _has_display() -> bool:
-    """Whether a GUI can open: always on Windows/macOS, with DISPLAY or WAYLAND_DISPLAY else."""
-    if sys.platform in ("win32", "darwin"):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-
+from acc_fusion.truth.sumo.reading import SumoReads
+from acc_fusion.truth.sumo.slots import SWEEP_STEPS, SumoSlots
 
 #: The open source of this process (libsumo holds one simulation per process).
 _OPEN: weakref.ref[SumoSource] | None = None
 
 
-@dataclass
-class _Hazard:
-    end: float
-    decel: float
-    emergency: float | None  # emergency deceleration to restore, None if unchanged
-
-
-class SumoSource(SlotSource):
+class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
     """Ground truth of every equipped vehicle of a SUMO simulation (see the module docstring).
 
     Args:
@@ -313,10 +132,10 @@ class SumoSource(SlotSource):
         self._tmpdir: str | None = None
         self._t = 0.0
         cfg_path = check_sumocfg(cfg.sumocfg, cfg.extra_args)
-        if cfg.gui and not _has_display():
+        if cfg.gui and not launch.has_display():
             raise ConfigError("gui needs a display (DISPLAY is not set); run without gui")
-        api = self._api = _load_api(cfg.gui)
-        self._errors = _traci_errors(api)
+        api = self._api = launch.load_api(cfg.gui)
+        self._errors = launch.traci_errors(api)
         other = _OPEN() if _OPEN is not None else None
         if other is not None and not other._closed:
             raise SumoError(
@@ -333,12 +152,12 @@ class SumoSource(SlotSource):
         if cfg.ssm:  # SUMO's SSM device writes a file nobody reads: a directory of our own
             self._tmpdir = tempfile.mkdtemp(prefix="acc_fusion_sumo_")
             ssm_file = os.path.join(self._tmpdir, "ssm.xml")
-        cmd = sumo_command(cfg, cfg_path, ssm_file)
+        cmd = launch.sumo_command(cfg, cfg_path, ssm_file)
         captured: list[str] = []
         try:
             # libsumo reports load errors on stderr (the exception says "Process Error");
             # sumo-gui is a child process that must keep its own stderr.
-            with nullcontext() if cfg.gui else _captured_stderr(captured):
+            with nullcontext() if cfg.gui else launch.captured_stderr(captured):
                 api.start(cmd)
         except (*self._errors, OSError) as exc:
             # libsumo may hold a half-loaded simulation (e.g. a route with an unknown edge
@@ -349,7 +168,7 @@ class SumoSource(SlotSource):
                 pass
             self._cleanup()
             raise SumoError(
-                f"SUMO could not load {str(cfg_path)!r}: {_sumo_message(exc, captured)}"
+                f"SUMO could not load {str(cfg_path)!r}: {launch.sumo_message(exc, captured)}"
             ) from None
         self._closed = False
         _OPEN = weakref.ref(self)
@@ -362,18 +181,7 @@ class SumoSource(SlotSource):
     # ---------------------------------------------------------------- set-up
     def _setup(self, cfg_path: Path) -> None:
         cfg, api = self.config, self._api
-        tc = api.constants
-        self._v_speed, self._v_accel = tc.VAR_SPEED, tc.VAR_ACCELERATION
-        self._v_leader, self._v_param = tc.VAR_LEADER, tc.VAR_PARAMETER_WITH_KEY
-        # libsumo: the compiled reader, else direct getters (both cheaper than subscriptions
-        # in-process); TraCI: one subscription read per step instead of a socket round trip
-        # per value.
-        self._subscribed = bool(cfg.gui)
-        self._native = sumo_reader() if cfg.native and not cfg.gui else None
-        self._get_speed = _raw(api, "vehicle_getSpeed", api.vehicle.getSpeed)
-        self._get_leader = _raw(api, "vehicle_getLeader", None) or _public_leader(api)
-        dist = float(cfg.lookahead)
-        self._leader_param = {tc.VAR_LEADER: ("d", dist)}  # TraCI's typed parameter
+        self._setup_reads()
         sim = api.simulation
         self.dt = float(sim.getDeltaT())
         self.begin = float(sim.getTime())
@@ -405,7 +213,7 @@ class SumoSource(SlotSource):
         self._occ_vids: list[str] = []
         self._occ_slots = np.zeros(0, dtype=np.intp)
         self._flips: list[tuple[int, bool]] = []
-        self._maker = FrameMaker(n, self.dt, dist)
+        self._maker = FrameMaker(n, self.dt, float(cfg.lookahead))
         # The slots taken at this step: their vehicle's minGap and acceleration (read once).
         self._news: dict[int, tuple[float, float]] = {}
         self._inattentive = np.zeros(n, dtype=bool)
@@ -520,55 +328,6 @@ class SumoSource(SlotSource):
         self._k += 1
         self._guard(self._update)
 
-    def inject_hazard(
-        self, vehicle_id: str, decel: float | None = None, duration: float | None = None
-    ) -> bool:
-        """Make ``vehicle_id`` brake at ``decel`` [m/s²] for ``duration`` [s] from the next
-        step (defaults: the config's).  Returns False if it is absent or already braking."""
-        present = vehicle_id in self._info and vehicle_id not in self._teleporting
-        if self._closed or not present or vehicle_id in self._hazards:
-            return False
-        decel = (
-            self.config.hazard_decel
-            if decel is None
-            else check_range("decel", decel, 0.0, 100.0, lo_open=True)
-        )
-        duration = (
-            self.config.hazard_duration
-            if duration is None
-            else check_range("duration", duration, 0.0, math.inf, lo_open=True, hi_open=True)
-        )
-        veh = self._api.vehicle
-        emergency = float(veh.getEmergencyDecel(vehicle_id))
-        restore = None
-        if emergency < decel:
-            veh.setEmergencyDecel(vehicle_id, decel)
-            restore = emergency
-        self._hazards[vehicle_id] = _Hazard(self._t + duration, decel, restore)
-        self.n_hazards += 1
-        return True
-
-    def set_warning_colors(self, levels: np.ndarray) -> None:
-        """Colour each slot's vehicle by its warning level (0 green, 1 amber, 2 red); only
-        changed colours are sent.  ``levels`` covers every slot or the first ones (the prefix
-        a pipeline works on, :mod:`acc_fusion.core.slots`; the slots beyond it are empty).  Meant
-        for ``gui``; harmless without."""
-        if self._closed:
-            return
-        lv = np.clip(np.asarray(levels, dtype=np.int64).reshape(-1), 0, len(WARNING_COLORS) - 1)
-        m = lv.shape[0]
-        if not 1 <= m <= self.n_pairs:
-            raise ConfigError(f"levels must hold 1 to {self.n_pairs} slots' levels, got {m}")
-        changed = np.flatnonzero(self._active[:m] & (lv != self._shown_level[:m]))
-        set_color, vids = self._api.vehicle.setColor, self._slot_vid
-
-        def paint() -> None:
-            for slot in changed:
-                set_color(vids[slot], WARNING_COLORS[lv[slot]])
-
-        self._guard(paint)
-        self._shown_level[changed] = lv[changed]
-
     def close(self) -> None:
         """Close SUMO (idempotent); the last frame and the counters stay readable."""
         global _OPEN
@@ -593,7 +352,7 @@ class SumoSource(SlotSource):
         self.close()
         raise SumoError(
             f"SUMO failed at t = {t:g} s running {self.config.sumocfg!r}: "
-            f"{_sumo_message(exc, captured)}"
+            f"{launch.sumo_message(exc, captured)}"
         ) from exc
 
     def _guard(self, func, *args) -> None:
@@ -608,50 +367,6 @@ class SumoSource(SlotSource):
         if self._subscribed:
             return float(self._res[vid][self._v_speed])
         return float(self._api.vehicle.getSpeed(vid))
-
-    def _control(self, brake: np.ndarray | None) -> None:
-        """Start hazards, then command the braking vehicles and hand back the others."""
-        cfg, dt, veh = self.config, self.dt, self._api.vehicle
-        if cfg.hazard_rate > 0 and self._info:
-            count = self._rng_hazard.poisson(cfg.hazard_rate * len(self._info) * dt / 3600.0)
-            if count:
-                ids = list(veh.getIDList())  # SUMO's order: reproducible
-                for pick in self._rng_hazard.integers(len(ids), size=count):
-                    self.inject_hazard(ids[pick])
-        targets: dict[str, float] = {}
-        for vid, hz in list(self._hazards.items()):
-            if self._t >= hz.end - TIME_TOL:
-                self._end_hazard(vid)
-            else:
-                targets[vid] = max(self._speed(vid) - hz.decel * dt, 0.0)
-        if brake is not None:
-            speed = self._frame.ego_speed
-            for slot in np.flatnonzero((brake > 0) & self._active):
-                vid = self._slot_vid[slot]
-                target = max(float(speed[slot]) - float(brake[slot]) * dt, 0.0)
-                targets[vid] = min(targets.get(vid, math.inf), target)
-        for vid in [v for v in self._ctrl if v not in targets]:
-            self._release(vid)
-        for vid, target in targets.items():
-            if vid not in self._ctrl:
-                mode = int(veh.getSpeedMode(vid))
-                self._ctrl[vid] = mode
-                veh.setSpeedMode(vid, mode & ~SPEED_MODE_MAX_DECEL)
-            veh.setSpeed(vid, target)
-
-    def _release(self, vid: str) -> None:
-        """Hand a vehicle back to SUMO: no commanded speed, its original speed mode."""
-        mode = self._ctrl.pop(vid, None)
-        if mode is not None:
-            veh = self._api.vehicle
-            veh.setSpeed(vid, -1.0)
-            veh.setSpeedMode(vid, mode)
-
-    def _end_hazard(self, vid: str) -> None:
-        """End an emergency braking: restore the emergency deceleration."""
-        hz = self._hazards.pop(vid, None)
-        if hz is not None and hz.emergency is not None:
-            self._api.vehicle.setEmergencyDecel(vid, hz.emergency)
 
     def _update(self, entering: Sequence[str] | None = None) -> None:
         """Read the step's events into the slots, then the vehicles' state into the frame."""
@@ -697,15 +412,6 @@ class SumoSource(SlotSource):
         if not self._bounded:
             self._sumo_done = self._k > 0 and sim.getMinExpectedNumber() <= 0
 
-    def _set_code(self, vid: str, slot: int = -1) -> None:
-        """Record the code of ``vid``'s integer id and slot (``-1``: none), ``id * (N + 1) +
-        slot + 1``: :meth:`_fill` finds both for every leader with one dict lookup."""
-        self._code[vid] = self._info[vid][0] * (self.n_pairs + 1) + slot + 1
-
-    def _new_int(self) -> int:
-        self._next_int += 1
-        return self._next_int - 1
-
     def _depart(self, vid: str) -> None:
         cfg, veh = self.config, self._api.vehicle
         if vid in self._info:
@@ -731,170 +437,3 @@ class SumoSource(SlotSource):
                 self.n_inattentive += 1
             self.n_equipped += 1
             self._waiting[vid] = None
-
-    def _leave(self, vid: str, freed: list[int], arrived: bool) -> None:
-        slot = self._slot_of.get(vid)
-        if slot is not None:
-            self._free_slot(slot, vid, freed)
-        self._waiting.pop(vid, None)
-        if arrived:  # gone: nothing to restore
-            self._info.pop(vid, None)
-            self._code.pop(vid, None)
-            self._teleporting.discard(vid)
-            self._ctrl.pop(vid, None)
-            self._hazards.pop(vid, None)
-        else:  # teleporting: it comes back under SUMO's control
-            self._teleporting.add(vid)
-            self._end_hazard(vid)
-            self._release(vid)
-
-    def _free_slot(self, slot: int, vid: str, freed: list[int]) -> None:
-        if self.config.ssm:
-            self._ssm_min[vid] = min(self._ssm_min.get(vid, math.inf), float(self._ssm_slot[slot]))
-        self._slot_vid[slot] = None
-        self._slot_of.pop(vid, None)
-        i = bisect.bisect_left(self._occ_list, slot)
-        del self._occ_list[i], self._occ_vids[i]
-        self._flips.append((slot, False))
-        if vid in self._info:
-            self._set_code(vid)
-        freed.append(slot)
-
-    def _assign(self) -> None:
-        """Put waiting equipped vehicles into free slots (lowest slot first, FIFO)."""
-        if not self._waiting:
-            return
-        veh = self._api.vehicle
-        while self._waiting and self._free:
-            vid = next(iter(self._waiting))
-            del self._waiting[vid]
-            slot = heapq.heappop(self._free)
-            self._slot_vid[slot] = vid
-            self._slot_of[vid] = slot
-            i = bisect.bisect_left(self._occ_list, slot)
-            self._occ_list.insert(i, slot)
-            self._occ_vids.insert(i, vid)
-            self._flips.append((slot, True))
-            self._set_code(vid, slot)
-            self._reassigned[slot] = True
-            self._collided[slot] = False
-            self._collision_speed[slot] = np.nan
-            self._shown_level[slot] = -1
-            self._ssm_slot[slot] = np.inf
-            min_gap = float(veh.getMinGap(vid))
-            # TraCI subscribes to every vehicle's acceleration (_fill reads them all).
-            accel = math.nan if self._subscribed else float(veh.getAcceleration(vid))
-            self._news[slot] = (min_gap, accel)
-            self._inattentive[slot] = self._info[vid][2]
-        if self._waiting and not self._capacity_warned:
-            self._capacity_warned = True
-            warnings.warn(
-                f"more than capacity = {self.n_pairs} equipped vehicles are in the network "
-                f"at t = {self._t:g} s; the others wait for a free slot (raise "
-                "SumoConfig.capacity)",
-                RuntimeWarning,
-                stacklevel=5,
-            )
-
-    def _read(self) -> None:
-        """Fill the frame from SUMO; a vehicle that left unannounced frees its slot."""
-        if self._flips:  # a new array: the frames handed out keep theirs
-            active = self._active.copy()
-            for slot, taken in self._flips:
-                active[slot] = taken
-            self._flips.clear()
-            self._active, self._occ_slots = active, np.flatnonzero(active)
-        if self._subscribed or self.config.ssm:
-            self._res = self._api.vehicle.getAllSubscriptionResults()
-        try:
-            self._fill()
-        except (KeyError, *self._errors):
-            if not self._sweep():
-                raise
-            self._read()
-
-    def _sweep(self) -> bool:
-        """Forget vehicles that left without an event (e.g. removed by another TraCI user);
-        returns whether a slot was freed."""
-        in_net = set(self._api.vehicle.getIDList())
-        freed: list[int] = []
-        for vid in [v for v in self._info if v not in in_net and v not in self._teleporting]:
-            self._leave(vid, freed, arrived=True)
-        present = in_net if not self._subscribed else in_net & set(self._res)
-        for vid in [v for v in self._occ_vids if v not in present and v in self._slot_of]:
-            self._free_slot(self._slot_of[vid], vid, freed)
-        for slot in freed:
-            heapq.heappush(self._free, slot)
-        return bool(freed)
-
-    def _fill(self) -> None:
-        """Read SUMO's values of the occupied slots' vehicles, one pass over them per quantity:
-        each one's speed, its leader's distance and code, and the speed and acceleration of
-        every leader that holds no slot (its own getters), into :attr:`_raw`; the frame is
-        made of them by :meth:`_make` (by the background source's parent process instead)."""
-        slots, vids = self._occ_slots, self._occ_vids
-        veh, res = self._api.vehicle, self._res
-        sp, ac, ld = self._v_speed, self._v_accel, self._v_leader
-        m, n = len(vids), self.n_pairs
-        lookahead = float(self.config.lookahead)
-        accel = None  # SUMO's accelerations where read for every vehicle (TraCI)
-        if self._native is not None:  # one call for every vehicle
-            speed, dists, codes = np.empty(m), np.empty(m), np.empty(m, dtype=np.int64)
-            lead_ids = self._native.read(vids, slots, lookahead, self._code, n, speed, dists, codes)
-        else:
-            if self._subscribed:
-                rows = [res[v] for v in vids]
-                speed = np.array([r[sp] for r in rows], dtype=float).reshape(m)
-                accel = np.full(n, np.nan)
-                accel[slots] = [r[ac] for r in rows]
-                leaders = [r[ld] or _NO_LEADER for r in rows]  # TraCI: None without
-            else:  # map over C functions: no Python frame per vehicle
-                speed = np.fromiter(map(self._get_speed, vids), float, m)
-                leaders = list(map(self._get_leader, vids, repeat(lookahead)))
-            ids = list(map(itemgetter(0), leaders))
-            dists = np.fromiter(map(itemgetter(1), leaders), float, m)
-            codes = np.fromiter(map(self._code.get, ids, repeat(-1)), np.int64, m)
-            slotless = np.flatnonzero((codes >= 0) & (codes % (n + 1) == 0))
-            lead_ids = {i: ids[i] for i in slotless.tolist()}
-        others = {}  # the leaders without a slot (an unequipped vehicle): their own getters
-        if lead_ids and self._subscribed:
-            others = {i: (res[x][sp], res[x][ac]) for i, x in lead_ids.items()}
-        elif lead_ids:
-            others = {i: (veh.getSpeed(x), veh.getAcceleration(x)) for i, x in lead_ids.items()}
-        if m and self.config.ssm:
-            pk = self._v_param
-            ttc = np.array([_ttc(res[v].get(pk)) for v in vids])
-            self._ssm_slot[slots] = np.minimum(self._ssm_slot[slots], ttc)
-        self._raw = (slots, speed, dists, codes, others, accel)
-
-    def _make(self) -> None:
-        """Make the current frame of what :meth:`_fill` read."""
-        slots, speed, dists, codes, others, accel = self._raw
-        self._frame = self._maker.make(
-            self._t, slots, speed, dists, codes, self._news, others, accel
-        )
-
-
-def _raw(api: Any, name: str, public: Any) -> Any:
-    """libsumo's SWIG function ``name`` without its Python wrapper (a third cheaper per
-    call), else the public function.  The raw ``vehicle_getLeader`` returns ``("", -1.0)``
-    without a leader where the wrapper returns ``None``."""
-    module = getattr(getattr(api, "libsumo", None), "_libsumo", None)
-    return getattr(module, name, None) or public
-
-
-def _public_leader(api: Any) -> Any:
-    """The public ``getLeader``, returning :data:`_NO_LEADER` instead of ``None`` as the raw one."""
-    get = api.vehicle.getLeader
-    return lambda vid, dist: get(vid, dist) or _NO_LEADER
-
-
-_NO_LEADER = ("", -1.0)
-
-
-def _ttc(item: Any) -> float:
-    """The value of a ``device.ssm.minTTC`` parameter subscription (``inf`` when empty)."""
-    try:
-        return float(item[1])
-    except (TypeError, ValueError, IndexError):
-        return math.inf
