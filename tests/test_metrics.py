@@ -40,6 +40,7 @@ def run(
     ttc=None,
     speed=None,
     collided=None,
+    relevant=None,
     finish=True,
     metrics=None,
 ):
@@ -55,6 +56,7 @@ def run(
             np.full(n, 20.0) if speed is None else speed[k],
             np.ones(n, bool) if active is None else active[k],
             None if collided is None else collided[k],
+            None if relevant is None else relevant[k],
         )
     if finish:
         m.finish(steps * DT)
@@ -265,7 +267,7 @@ def random_levels(rng, steps, n, p_switch):
     return (np.cumsum(switch, axis=0) % 2 * rng.integers(1, 3, (steps, n))).astype(np.int8)
 
 
-def reference(system, oracle, active, ttc, warn_level, tolerance):
+def reference(system, oracle, active, ttc, warn_level, tolerance, relevant):
     """The definitions evaluated offline on whole sequences (events = merged intervals)."""
 
     def events(flag):
@@ -284,24 +286,41 @@ def reference(system, oracle, active, ttc, warn_level, tolerance):
     def gap(a, b):
         return max(0.0, a[0] - b[1], b[0] - a[1])
 
-    result = dict(warnings=0, false_alarms=0, threats=0, detected=0, missed=0)
-    leads, ttc_matched = [], []
+    names = "warnings false_alarms threats detected missed crash_relevant nuisance sensing_false"
+    names += " relevant relevant_detected relevant_missed threats_relevant"
+    result = dict.fromkeys(names.split(), 0)
+    leads, relevant_leads, ttc_matched = [], [], []
+
+    def near(a, b):
+        return gap(a, b) <= tolerance + 1e-9
+
     for i in range(system.shape[1]):
         warns = events(active[:, i] & (system[:, i] >= warn_level))
         threats = events(active[:, i] & (oracle[:, i] >= warn_level))
-        match = [[gap(w, h) <= tolerance + 1e-9 for h in threats] for w in warns]
+        situations = events(active[:, i] & relevant[:, i])
+        match = [[near(w, h) for h in threats] for w in warns]
         result["warnings"] += len(warns)
         result["threats"] += len(threats)
+        result["relevant"] += len(situations)
         result["false_alarms"] += sum(not any(row) for row in match)
+        for w, row in zip(warns, match, strict=True):
+            kind = "nuisance" if any(row) else "sensing_false"
+            result["crash_relevant" if any(near(w, c) for c in situations) else kind] += 1
         for j, h in enumerate(threats):
             hits = [w for w, row in zip(warns, match, strict=True) if row[j]]
             result["detected" if hits else "missed"] += 1
+            result["threats_relevant"] += any(near(h, c) for c in situations)
             if hits:
                 leads.append(h[0] - hits[0][0])
+        for c in situations:
+            hits = [w for w in warns if near(w, c)]
+            result["relevant_detected" if hits else "relevant_missed"] += 1
+            if hits:
+                relevant_leads.append(c[0] - hits[0][0])
         ttc_matched += [
             ttc[round(w[0] / DT), i] for w, row in zip(warns, match, strict=True) if any(row)
         ]
-    return result, leads, ttc_matched
+    return result, leads, relevant_leads, ttc_matched
 
 
 @pytest.mark.parametrize(
@@ -313,12 +332,25 @@ def test_streaming_equals_offline_reference(rng, tolerance, warn_level, p_switch
     oracle = random_levels(rng, steps, n, p_switch)
     active = rng.random((steps, n)) < 0.95
     ttc = rng.uniform(0.5, 10.0, (steps, n))
+    relevant = random_levels(rng, steps, n, p_switch / 3) > 0
     s = run(
-        system, oracle, active=active, ttc=ttc, tolerance=tolerance, warn_level=warn_level
+        system,
+        oracle,
+        active=active,
+        ttc=ttc,
+        relevant=relevant,
+        tolerance=tolerance,
+        warn_level=warn_level,
     ).summary()
-    want, leads, ttc_matched = reference(system, oracle, active, ttc, warn_level, tolerance)
+    want, leads, relevant_leads, ttc_matched = reference(
+        system, oracle, active, ttc, warn_level, tolerance, relevant
+    )
     assert want["warnings"] > 20 and want["false_alarms"] > 0 and want["detected"] > 5
+    assert min(want[k] for k in ("crash_relevant", "nuisance", "sensing_false")) > 0
+    assert want["relevant_missed"] > 0 and want["threats_relevant"] > 0
     assert {k: getattr(s, k) for k in want} == want
+    assert s.relevant_lead_time.count == len(relevant_leads)
+    assert s.relevant_lead_time.mean == pytest.approx(np.mean(relevant_leads), abs=1e-9)
     assert s.lead_time.count == len(leads)
     assert s.lead_time.mean == pytest.approx(np.mean(leads), abs=1e-9)
     assert abs(s.lead_time.median - np.median(leads)) <= 2 * DT
@@ -334,11 +366,12 @@ def test_merge_equals_one_instance(rng):
     speed = rng.uniform(0, 30, (steps, n))
     ttc = rng.uniform(0.5, 10.0, (steps, n))
     collided = rng.random((steps, n)) < 0.01
-    arrays = (system, oracle, active, speed, ttc, collided)
+    relevant = rng.random((steps, n)) < 0.05
+    arrays = (system, oracle, active, speed, ttc, collided, relevant)
 
     def part(sl):
-        sy, orc, ac, sp, tt, co = (a[:, sl] for a in arrays)
-        return run(sy, orc, active=ac, speed=sp, ttc=tt, collided=co)
+        sy, orc, ac, sp, tt, co, re = (a[:, sl] for a in arrays)
+        return run(sy, orc, active=ac, speed=sp, ttc=tt, collided=co, relevant=re)
 
     whole = part(slice(None)).summary().as_dict()
     merged = part(slice(0, cut))
@@ -349,7 +382,10 @@ def test_merge_equals_one_instance(rng):
     for key in (
         "false_alarms_per_hour",
         "false_alarms_per_100km",
+        "alerts_per_hour",
+        "alerts_per_100km",
         "lead_time",
+        "relevant_lead_time",
         "ttc_at_warning",
         "ttc_at_any_warning",
     ):

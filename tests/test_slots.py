@@ -7,7 +7,7 @@ import pytest
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.slots import Extent
-from acc_fusion.metrics.events import FCWMetrics
+from acc_fusion.metrics.events import COUNTS, FCWMetrics
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
 
 
@@ -16,7 +16,7 @@ def test_resize_parks_the_tail_and_growing_back_restores_it():
     metrics._pair_driven_s[:] = np.arange(8.0)
     metrics._warnings.start[:] = np.arange(8.0) + 10
     metrics.resize(3)
-    assert metrics.n_pairs == 3 and metrics._pair_counts.shape == (6, 3)
+    assert metrics.n_pairs == 3 and metrics._pair_counts.shape == (len(COUNTS), 3)
     np.testing.assert_array_equal(metrics._warnings.start, [10.0, 11.0, 12.0])
     metrics._pair_driven_s[:] += 100.0  # the held pairs move on; the parked ones do not
     metrics.resize(5)

@@ -137,12 +137,15 @@ def write_summary(out, name: str, payload: dict) -> None:
 
 
 def write_study(out, stem: str, table, study, **fields) -> None:
-    """Write a traffic study (FCW off and on): ``stem``.csv (the table), .png (the rates of
-    the FCW-off run) and .json (``fields`` and both runs' summaries) into ``out``."""
+    """Write a traffic study (FCW off and on): ``stem``.csv (the table), ``stem``_classes.csv
+    (the alert classes), .png (the rates of the FCW-off run) and .json (``fields`` and both
+    runs' summaries) into ``out``."""
 
+    classes = study.classes()
     write_csv_atomic(out / f"{stem}.csv", table.columns, table.rows)
+    write_csv_atomic(out / f"{stem}_classes.csv", classes.columns, classes.rows)
     save_figure_atomic(rates_figure(study.off.summaries, table.title), out / f"{stem}.png")
-    print(f"wrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
+    print(f"wrote {out / (stem + '.csv')}, {stem}_classes.csv and {stem}.png")
     runs = {"fcw_off": study.off, "fcw_on": study.on}
     summaries = {k: {m: s.as_dict() for m, s in r.summaries.items()} for k, r in runs.items()}
     write_summary(out, f"{stem}.json", {**fields, **summaries})

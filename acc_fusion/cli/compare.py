@@ -36,17 +36,18 @@ def run(args: argparse.Namespace) -> int:
     cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
     out = output_dir(args.out) if args.out else None
     comparison = compare(cfg, progress=True)
-    table = comparison.table()
-    print(table.format())
+    table, classes = comparison.table(), comparison.classes()
+    print(table.format() + "\n\n" + classes.format())
     if out is not None:
         write_csv_atomic(out / "compare.csv", table.columns, table.rows)
+        write_csv_atomic(out / "compare_classes.csv", classes.columns, classes.rows)
         c = comparison.collisions
         title = (
             f"{cfg.runs} randomised runs, 95% intervals; closed loop: {c['on']} collisions "
             f"with {c['drive']} alerts, {c['off']} without"
         )
         save_figure_atomic(rates_figure(comparison.result.summaries, title), out / "compare.png")
-        print(f"wrote {out / 'compare.csv'} and {out / 'compare.png'}")
+        print(f"wrote {out / 'compare.csv'}, {out / 'compare_classes.csv'}, {out / 'compare.png'}")
         write_summary(
             out,
             "compare.json",

@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     sim = sim_config(args, runs=1)
     study = highway_study(cfg, sim, progress=True, render=render)
     table = study.table()
-    print(table.format())
+    print(table.format() + "\n\n" + study.classes().format())
     if study.on.replay is not None:
         print(f"wrote {study.on.replay}")
     if out is not None:

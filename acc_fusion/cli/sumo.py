@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     sim = sim_config(args, runs=1)
     study = sumo_study(sumo_cfg, sim, progress=True)
     table = study.table()
-    print(table.format())
+    print(table.format() + "\n\n" + study.classes().format())
     if out is not None:
         write_study(
             out,

@@ -127,6 +127,7 @@ class _Core:
             "t": np.full(self.n, p.frame.t),
             "oracle": p.oracle.astype(np.int64),
             "ttc": p.ttc.astype(float),
+            "crash_relevant": p.relevant.copy(),
             "ego_speed": p.frame.ego_speed.copy(),
             "gap_true": np.where(p.frame.has_leader, p.frame.gap, np.nan),
             "collided": collided.copy(),

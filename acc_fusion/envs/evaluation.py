@@ -324,6 +324,7 @@ def evaluate(
                     np.array([info["ego_speed"]]),
                     np.array([bool(info["active"])]),
                     np.array([collided]),
+                    np.array([bool(info["crash_relevant"])]),
                 )
                 total_reward += float(r)
                 collisions += collided

@@ -41,6 +41,25 @@ Matching
     other they count as one event, and lead times and TTCs are taken at the onset of that
     event's first interval.
 
+Alert classes, judged from truth
+    The caller also flags, per step, the pairs in a *crash-relevant situation* in truth
+    (:mod:`acc_fusion.metrics.alert_classes`: the driver must act now, whatever the rule under
+    test says).  Flagged steps make a third kind of event, merged and matched with the same
+    tolerance.  When a warning ends it gets one class:
+
+    * **crash-relevant**: it matched a crash-relevant situation;
+    * **nuisance**: otherwise, it matched an oracle threat (the rule fires on the true lead,
+      but truth shows that nothing needed doing);
+    * **sensing-false**: neither (with perfect sensing the rule would not have fired: noise,
+      ghosts, a wrong target, a fault).
+
+    A crash-relevant situation that matches no warning is *missed*; its *lead time* is its
+    onset minus the onset of the first warning it matches.  The oracle's threats that met a
+    crash-relevant situation are counted too (``threats_relevant``): how many of the rule's
+    firings on truth needed any action.  The oracle-agreement figures (false alarms, misses)
+    stay as they were: a *false alarm* is a warning that matched no oracle threat, whatever
+    the situation.
+
 Counting
     Every figure is counted when it becomes known: warnings and threats at their onset (and
     the TTC at warning over all warnings), detections and lead times when a threat first
@@ -48,13 +67,13 @@ Counting
     when an unmatched event stops being live, and the events still live when :meth:`finish`
     is called.  Call :meth:`finish` at the end of a run before reading the summary.
 
-Inactive pairs close their open intervals; an event's tail still runs on time, so a pair
-that is inactive for less than :math:`\tau` can still match across the gap.  When a new
-vehicle takes a pair over (a slot of a traffic source), :meth:`FCWMetrics.reset` settles the
-events of the vehicle before it, which must not match the newcomer's across that gap.
-Pairs flagged ``collided`` count one collision per run of flagged steps (whether or not
-active).
-Exposure (hours, km) and the per-step confusion matrix count active pair-steps only.
+Warning classes are counted when the warning ends. Inactive pairs close their open intervals; an
+event's tail still runs on time, so a pair that is inactive for less than :math:`\tau` can still
+match across the gap. When a new vehicle takes a pair over (a slot of a traffic source),
+:meth:`FCWMetrics.reset` settles the events of the vehicle before it, which must not match the
+newcomer's across that gap. Pairs flagged ``collided`` count one collision per run of flagged
+steps (whether or not active). Exposure (hours, km) and the per-step confusion matrix count
+active pair-steps only.
 
 Memory is constant: a few per-pair arrays, a fixed number of counters, and fixed-bin
 histograms (:class:`acc_fusion.metrics.stats.Histogram`) for lead times and TTCs.
@@ -70,49 +89,56 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_range
+from acc_fusion.metrics.event_kernels import _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
-from acc_fusion.metrics.summary import FCWSummary, event_rates
+from acc_fusion.metrics.summary import ALERT_CLASSES, FCWSummary, event_rates
 
 #: Histogram bins [s]: lead time over [-60, 60) and TTC over [0, 60), 0.01 s wide.
 LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
 TTC_BINS = (0.0, 60.0, 0.01)
 
-_COUNTS = ("warnings", "false_alarms", "threats", "detected", "missed", "collisions")
+#: The event counts of :meth:`FCWMetrics.per_pair` (and of a sweep's rows), in order.
+COUNTS = (
+    "warnings", "false_alarms", "threats", "detected", "missed", "collisions", *ALERT_CLASSES,
+    "relevant", "relevant_detected", "relevant_missed", "threats_relevant",
+)  # fmt: skip
 
 
 class _Events(PairState):
-    """Per-pair state of one kind of event (warnings or threats); see the module docstring.
+    """Per-pair state of one kind of event (warnings, threats or crash-relevant situations);
+    see the module docstring.
 
-    ``on``: the flag was set at the last step; ``live``, ``matched``: the pair's current
-    event; ``start``: its onset time; ``end``: the end of its last closed interval.  A step
-    is :func:`_event_step`.
+    ``on``: the flag was set at the last step; ``live``, ``matched``, ``flagged``: the pair's
+    current event (``flagged``: a warning or threat that met a crash-relevant situation);
+    ``start``: its onset time; ``end``: the end of its last closed interval.  A step is
+    :func:`_event_step`.
     """
 
-    _PAIR_AXES = dict.fromkeys(("on", "live", "matched", "start", "end"), 0)
+    _PAIR_AXES = dict.fromkeys(("on", "live", "matched", "flagged", "start", "end"), 0)
 
     def __init__(self, n_pairs: int) -> None:
         self.on = np.zeros(n_pairs, dtype=bool)
         self.live = np.zeros(n_pairs, dtype=bool)
         self.matched = np.zeros(n_pairs, dtype=bool)
+        self.flagged = np.zeros(n_pairs, dtype=bool)
         self.start = np.zeros(n_pairs)
         self.end = np.zeros(n_pairs)
 
     @property
     def arrays(self) -> tuple[np.ndarray, ...]:
-        """``(on, live, matched, start, end)``, what :func:`_event_step` advances."""
-        return self.on, self.live, self.matched, self.start, self.end
+        """``(on, live, matched, flagged, start, end)``, the arrays :func:`_record` advances."""
+        return self.on, self.live, self.matched, self.flagged, self.start, self.end
 
     def finish(self, pairs: np.ndarray | None = None) -> np.ndarray:
-        """End the events of ``pairs`` (a boolean mask; all by default); returns the pairs
-        whose event was unmatched."""
-        unmatched = np.empty(self.live.size, dtype=bool)
-        _finish(pair_mask(pairs, self.live.size), self.on, self.live, self.matched, unmatched)
-        return unmatched
+        """End the live events of ``pairs`` (a boolean mask; all by default); returns the
+        pairs whose event ended (their ``matched`` and ``flagged`` say what it was)."""
+        ended = np.empty(self.live.size, dtype=bool)
+        _finish(pair_mask(pairs, self.live.size), self.on, self.live, ended)
+        return ended
 
 
 class FCWMetrics(PairState):
@@ -147,11 +173,12 @@ class FCWMetrics(PairState):
         self._horizon = self.tolerance + 1e-6 * self.dt
         self._warnings = _Events(self.n_pairs)
         self._threats = _Events(self.n_pairs)
+        self._relevant = _Events(self.n_pairs)
         self._onset_ttc = np.zeros(self.n_pairs)
         self._collided = np.zeros(self.n_pairs, dtype=bool)
         self._last_t = -math.inf
-        self._counts = np.zeros(len(_COUNTS), dtype=np.int64)  # in the order of _COUNTS
-        self._pair_counts = np.zeros((len(_COUNTS), self.n_pairs), dtype=np.int64)
+        self._counts = np.zeros(len(COUNTS), dtype=np.int64)  # in the order of COUNTS
+        self._pair_counts = np.zeros((len(COUNTS), self.n_pairs), dtype=np.int64)
         self._pair_driven_s = np.zeros(self.n_pairs)
         self._pair_distance_m = np.zeros(self.n_pairs)
         self._pair_lead_time_s = np.zeros(self.n_pairs)
@@ -159,15 +186,18 @@ class FCWMetrics(PairState):
         self._distance_m = 0.0
         self._confusion = np.zeros((3, 3), dtype=np.int64)
         self._lead_time = Histogram(*LEAD_TIME_BINS)
+        self._relevant_lead_time = Histogram(*LEAD_TIME_BINS)
         self._ttc_matched = Histogram(*TTC_BINS)
         self._ttc_all = Histogram(*TTC_BINS)
-        # One step's values: TTC at new warnings, at matched warnings, lead times, speeds.
-        self._values = np.empty((4, self.n_pairs))
+        # One step's values: TTC at new warnings, at matched warnings, lead times, speeds,
+        # lead times before crash-relevant situations.
+        self._values = np.empty((5, self.n_pairs))
 
     def _resized(self, m: int) -> None:
         self.n_pairs = m
         self._warnings.resize(m)
         self._threats.resize(m)
+        self._relevant.resize(m)
 
     def _levels(self, name: str, value: object) -> np.ndarray:
         arr = np.asarray(value)
@@ -207,6 +237,7 @@ class FCWMetrics(PairState):
         speed: np.ndarray,
         active: np.ndarray,
         collided: np.ndarray | None = None,
+        relevant: np.ndarray | None = None,
     ) -> None:
         """Record one step at time ``t`` [s].
 
@@ -217,37 +248,42 @@ class FCWMetrics(PairState):
             speed: ego speed (N,) [m/s], for the distance driven.
             active: pairs driven this step; the others close their intervals.
             collided: pairs that collided at this step (default: none).
+            relevant: pairs in a crash-relevant situation in truth at this step
+                (:func:`acc_fusion.metrics.alert_classes.crash_relevant`; default: none).
         """
         t = self._check_time(t)
         n = self.n_pairs
         system, oracle, active = np.asarray(system), np.asarray(oracle), np.asarray(active)
         ttc, speed = np.asarray(ttc, dtype=float), np.asarray(speed, dtype=float)
         collided = np.zeros(n, dtype=bool) if collided is None else np.asarray(collided)
+        relevant = np.zeros(n, dtype=bool) if relevant is None else np.asarray(relevant)
         if not (
             system.shape == oracle.shape == ttc.shape == speed.shape == (n,)
-            and active.shape == collided.shape == (n,)
+            and active.shape == collided.shape == relevant.shape == (n,)
             and system.dtype.kind in "iu"
             and oracle.dtype.kind in "iu"
-            and active.dtype == collided.dtype == bool
+            and active.dtype == collided.dtype == relevant.dtype == bool
             and _usable(system, oracle, ttc, speed, active)
         ):
-            self._check(system, oracle, ttc, speed, active, collided)  # raises
+            self._check(system, oracle, ttc, speed, active, collided, relevant)  # raises
         self._last_t = t
 
         values = self._values
-        n_active, n_new, n_matched, n_lead = _record(
-            t, system, oracle, ttc, speed, active, collided, self.warn_level, self._horizon,
-            self.dt, *self._warnings.arrays, *self._threats.arrays, self._onset_ttc,
-            self._collided, self._counts, self._pair_counts, self._pair_driven_s,
-            self._pair_distance_m, self._pair_lead_time_s, self._confusion, values,
+        n_active, n_new, n_matched, n_lead, n_relevant = _record(
+            t, system, oracle, ttc, speed, active, collided, relevant, self.warn_level,
+            self._horizon, self.dt, *self._warnings.arrays, *self._threats.arrays,
+            *self._relevant.arrays, self._onset_ttc, self._collided, self._counts,
+            self._pair_counts, self._pair_driven_s, self._pair_distance_m,
+            self._pair_lead_time_s, self._confusion, values,
         )  # fmt: skip
         self._ttc_all.add(values[0, :n_new])
         self._ttc_matched.add(values[1, :n_matched])
         self._lead_time.add(values[2, :n_lead])
+        self._relevant_lead_time.add(values[4, :n_relevant])
         self._driven_s += n_active * self.dt
         self._distance_m += float(values[3, :n_active].sum()) * self.dt
 
-    def _check(self, system, oracle, ttc, speed, active, collided) -> None:
+    def _check(self, system, oracle, ttc, speed, active, collided, relevant) -> None:
         """Raise the error of the first bad input of :meth:`update`."""
         self._levels("system", system)
         self._levels("oracle", oracle)
@@ -257,11 +293,12 @@ class FCWMetrics(PairState):
             raise InputError("ttc must be a number >= 0 or inf where active, got NaN")
         check_array("speed", speed, (self.n_pairs,), nonnegative=True, where=active)
         self._mask("collided", collided)
+        self._mask("relevant", relevant)
 
     def _add(self, **events: np.ndarray) -> None:
         """Count the events of each kind (boolean masks over the pairs), in total and per pair."""
         for name, mask in events.items():
-            i = _COUNTS.index(name)
+            i = COUNTS.index(name)
             self._counts[i] += np.count_nonzero(mask)
             self._pair_counts[i] += mask
 
@@ -280,9 +317,8 @@ class FCWMetrics(PairState):
             if collided is None
             else self._mask("collided", collided) & ~self._collided
         )
-        self._add(
-            false_alarms=self._warnings.finish(), missed=self._threats.finish(), collisions=late
-        )
+        self._settle(None)
+        self._add(collisions=late)
         self._collided[:] = False
         self._last_t = -math.inf
 
@@ -292,8 +328,20 @@ class FCWMetrics(PairState):
         vehicle's events within :math:`\\tau`.  Its unmatched warning or threat counts as a
         false alarm or a miss now (nothing can match it any more); the totals, the exposure
         and the per-pair sums carry on."""
-        pairs = self._mask("pairs", pairs)
-        self._add(false_alarms=self._warnings.finish(pairs), missed=self._threats.finish(pairs))
+        self._settle(self._mask("pairs", pairs))
+
+    def _settle(self, pairs: np.ndarray | None) -> None:
+        """End the live events of ``pairs`` (all if ``None``) and count what they were."""
+        w, h, c = self._warnings, self._threats, self._relevant
+        w_end, h_end, c_end = w.finish(pairs), h.finish(pairs), c.finish(pairs)
+        self._add(
+            false_alarms=w_end & ~w.matched,
+            missed=h_end & ~h.matched,
+            crash_relevant=w_end & w.flagged,
+            nuisance=w_end & ~w.flagged & w.matched,
+            sensing_false=w_end & ~w.flagged & ~w.matched,
+            relevant_missed=c_end & ~c.matched,
+        )
 
     def merge(self, other: FCWMetrics) -> None:
         """Add the counts, exposure and distributions of ``other`` (a finished instance).
@@ -306,13 +354,14 @@ class FCWMetrics(PairState):
                 f"{other.warn_level} and {other.tolerance:g} s for "
                 f"{self.warn_level} and {self.tolerance:g} s"
             )
-        if other._warnings.live.any() or other._threats.live.any():
+        if any(e.live.any() for e in (other._warnings, other._threats, other._relevant)):
             raise InputError("merge needs a finished instance: call finish(t) on it first")
         self._counts += other._counts
         self._driven_s += other._driven_s
         self._distance_m += other._distance_m
         self._confusion += other._confusion
         self._lead_time.merge(other._lead_time)
+        self._relevant_lead_time.merge(other._relevant_lead_time)
         self._ttc_matched.merge(other._ttc_matched)
         self._ttc_all.merge(other._ttc_all)
 
@@ -320,11 +369,14 @@ class FCWMetrics(PairState):
         """Per-pair figures so far (complete after :meth:`finish`), arrays ``(N,)``.
 
         Keys: the event counts (``warnings``, ``false_alarms``, ``threats``, ``detected``,
-        ``missed``, ``collisions``), ``hours`` and ``km`` of active exposure, and
+        ``missed``, ``collisions``, the alert classes ``crash_relevant``, ``nuisance``,
+        ``sensing_false``, the crash-relevant situations ``relevant``, ``relevant_detected``,
+        ``relevant_missed`` and the oracle's threats that met one, ``threats_relevant``),
+        ``hours`` and ``km`` of active exposure, and
         ``lead_time_sum_s``, the sum of the lead times [s] of the pair's detected threats.
         """
         return {
-            **{name: c.copy() for name, c in zip(_COUNTS, self._pair_counts, strict=True)},
+            **{name: c.copy() for name, c in zip(COUNTS, self._pair_counts, strict=True)},
             "hours": self._pair_driven_s / 3600.0,
             "km": self._pair_distance_m / 1000.0,
             "lead_time_sum_s": self._pair_lead_time_s.copy(),
@@ -332,7 +384,7 @@ class FCWMetrics(PairState):
 
     def summary(self, confidence: float = 0.95) -> FCWSummary:
         """The metrics so far (complete after :meth:`finish`), intervals at ``confidence``."""
-        count = dict(zip(_COUNTS, self._counts.tolist(), strict=True))
+        count = dict(zip(COUNTS, self._counts.tolist(), strict=True))
         hours = self._driven_s / 3600.0
         km = self._distance_m / 1000.0
         return FCWSummary(
@@ -344,111 +396,9 @@ class FCWMetrics(PairState):
             km=km,
             **event_rates(count, hours, km, confidence),
             lead_time=self._lead_time.distribution(),
+            relevant_lead_time=self._relevant_lead_time.distribution(),
             ttc_at_warning=self._ttc_matched.distribution(),
             ttc_at_any_warning=self._ttc_all.distribution(),
             confusion=tuple(tuple(row) for row in self._confusion.tolist()),
             per_pair=self.per_pair(),
         )
-
-
-@njit(cache=True)
-def _usable(system, oracle, ttc, speed, active):  # pragma: no cover - compiled
-    """True if the levels are 0, 1 or 2 and, where ``active``, ``ttc`` is a number >= 0 or inf
-    and ``speed`` a finite number >= 0 (the checks of :meth:`FCWMetrics.update`)."""
-    for i in range(active.size):
-        if not (0 <= system[i] <= 2 and 0 <= oracle[i] <= 2):
-            return False
-        if active[i] and not (ttc[i] >= 0.0 and np.isfinite(speed[i]) and speed[i] >= 0.0):
-            return False
-    return True
-
-
-@njit(cache=True)
-def _finish(pairs, on, live, matched, unmatched):  # pragma: no cover - compiled
-    """:meth:`_Events.finish` of the pairs in ``pairs (N,)``: their events end (not on, not
-    live, in place); ``unmatched (N,)`` receives those whose live event was unmatched."""
-    for i in range(pairs.size):
-        unmatched[i] = pairs[i] and live[i] and not matched[i]
-        if pairs[i]:
-            on[i] = False
-            live[i] = False
-
-
-@njit(cache=True)
-def _event_step(t, now, horizon, on, live, matched, start, end):  # pragma: no cover - compiled
-    """Advance one pair's event of one kind (:class:`_Events`) to time ``t`` with the flag
-    ``now``.
-
-    Takes and returns the pair's ``(on, live, matched, start, end)``, preceded on return by
-    whether a new event starts at ``t`` and whether an unmatched event stopped being live
-    (its tail passed ``horizon`` after its last interval).
-    """
-    held = on and now
-    if on and not now:
-        end = t
-    expired = live and not held and t - end > horizon
-    unmatched = expired and not matched
-    live = live and not expired
-    new = now and not on and not live
-    if new:
-        live, matched, start = True, False, t
-    return new, unmatched, now, live, matched, start, end
-
-
-@njit(cache=True)
-def _record(
-    t, system, oracle, ttc, speed, active, collided, warn_level, horizon, dt,
-    w_on, w_live, w_matched, w_start, w_end, h_on, h_live, h_matched, h_start, h_end,
-    onset_ttc, was_collided, counts, pair_counts, pair_driven_s, pair_distance_m,
-    pair_lead_time_s, confusion, values,
-):  # pragma: no cover - compiled  # fmt: skip
-    """One step of :meth:`FCWMetrics.update` on checked inputs, in place (``w_*``: the
-    warnings, ``h_*``: the threats, as :class:`_Events`; counts in the order of ``_COUNTS``).
-
-    Rows 0 to 3 of ``values`` receive, in the order of the pairs, the TTC at the new warnings,
-    the onset TTC of the newly matched warnings, the lead times of the newly detected threats
-    and the speeds of the active pairs; returns how many of each, the last being the number
-    of active pairs.
-    """
-    n_new = n_matched = n_lead = n_active = 0
-    for i in range(active.size):
-        warns = active[i] and system[i] >= warn_level
-        threatened = active[i] and oracle[i] >= warn_level
-        warn_new, false_alarm, w_on[i], w_live[i], w_matched[i], w_start[i], w_end[i] = _event_step(
-            t, warns, horizon, w_on[i], w_live[i], w_matched[i], w_start[i], w_end[i]
-        )
-        threat_new, missed, h_on[i], h_live[i], h_matched[i], h_start[i], h_end[i] = _event_step(
-            t, threatened, horizon, h_on[i], h_live[i], h_matched[i], h_start[i], h_end[i]
-        )
-        if warn_new:
-            onset_ttc[i] = ttc[i]
-            values[0, n_new] = ttc[i]
-            n_new += 1
-        both = w_live[i] and h_live[i]
-        warn_matched = both and not w_matched[i]
-        detected = both and not h_matched[i]
-        if both:
-            w_matched[i] = True
-            h_matched[i] = True
-        if warn_matched:
-            values[1, n_matched] = onset_ttc[i]
-            n_matched += 1
-        if detected:
-            lead = h_start[i] - w_start[i]
-            values[2, n_lead] = lead
-            n_lead += 1
-            pair_lead_time_s[i] += lead
-        if active[i]:
-            confusion[oracle[i], system[i]] += 1
-            values[3, n_active] = speed[i]
-            n_active += 1
-            pair_driven_s[i] += dt
-            pair_distance_m[i] += speed[i] * dt
-        collision = collided[i] and not was_collided[i]
-        was_collided[i] = collided[i]
-        events = (warn_new, false_alarm, threat_new, detected, missed, collision)
-        for k in range(len(events)):
-            if events[k]:
-                counts[k] += 1
-                pair_counts[k, i] += 1
-    return n_active, n_new, n_matched, n_lead

@@ -12,6 +12,9 @@ import numpy as np
 from acc_fusion.core.levels import LEVEL_NAMES
 from acc_fusion.metrics.stats import Distribution, Rate
 
+#: The classes of a warning, judged from truth (:mod:`acc_fusion.metrics.events`).
+ALERT_CLASSES = ("crash_relevant", "nuisance", "sensing_false")
+
 
 @dataclass(frozen=True)
 class FCWSummary:
@@ -24,7 +27,14 @@ class FCWSummary:
         hours, km: exposure, over active pair-steps.
         false_alarms_per_hour, false_alarms_per_100km: exact Poisson rates.
         miss_rate: missed / threats; false_alarm_ratio: false_alarms / warnings (Wilson).
+        crash_relevant, nuisance, sensing_false: warnings by class (judged from truth).
+        relevant, relevant_detected, relevant_missed: crash-relevant situations in truth, of
+            them matched by a warning and missed; threats_relevant: oracle threats that met one.
+        alerts_per_hour, alerts_per_100km: each alert class's exact Poisson rate (keys
+            :data:`ALERT_CLASSES`).
+        relevant_miss_rate: relevant_missed / relevant (Wilson).
         lead_time: lead times [s] of the detected threats.
+        relevant_lead_time: lead times [s] of the detected crash-relevant situations.
         ttc_at_warning: true TTC [s] at the onset of matched warnings.
         ttc_at_any_warning: true TTC [s] at the onset of all warnings.
         confusion: active pair-steps by oracle level (rows) and system level (columns).
@@ -41,20 +51,32 @@ class FCWSummary:
     detected: int
     missed: int
     collisions: int
+    crash_relevant: int
+    nuisance: int
+    sensing_false: int
+    relevant: int
+    relevant_detected: int
+    relevant_missed: int
+    threats_relevant: int
     hours: float
     km: float
     false_alarms_per_hour: Rate
     false_alarms_per_100km: Rate
     miss_rate: Rate
     false_alarm_ratio: Rate
+    alerts_per_hour: dict[str, Rate]
+    alerts_per_100km: dict[str, Rate]
+    relevant_miss_rate: Rate
     lead_time: Distribution
+    relevant_lead_time: Distribution
     ttc_at_warning: Distribution
     ttc_at_any_warning: Distribution
     confusion: tuple[tuple[int, int, int], ...]
     per_pair: dict[str, np.ndarray] | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
-        """Plain nested dicts (without ``per_pair``); NaN and ±inf become ``None``."""
+        """Plain nested dicts (without ``per_pair``); NaN and ±inf become ``None``; the alert
+        classes' rates are flat: ``{"nuisance": x, "nuisance_lo": lo, "nuisance_hi": hi, ...}``."""
 
         def clean(x: object) -> object:
             if isinstance(x, dict):
@@ -65,7 +87,14 @@ class FCWSummary:
                 return None
             return x
 
-        return clean({k: v for k, v in asdict(self).items() if k != "per_pair"})
+        out = {k: v for k, v in asdict(self).items() if k != "per_pair"}
+        for key in ("alerts_per_hour", "alerts_per_100km"):  # {class: x, class_lo:, class_hi:}
+            out[key] = {
+                f"{c}{end}": rate[part]
+                for c, rate in out[key].items()
+                for end, part in (("", "value"), ("_lo", "lo"), ("_hi", "hi"))
+            }
+        return clean(out)
 
     def format(self) -> str:
         """A readable multi-line summary."""
@@ -86,6 +115,17 @@ class FCWSummary:
                 f"threats               {self.threats} ({self.detected} detected, "
                 f"{self.missed} missed)",
                 f"collisions            {self.collisions}",
+                f"alerts by class       {self.crash_relevant} crash-relevant, "
+                f"{self.nuisance} nuisance, {self.sensing_false} sensing-false",
+                *(
+                    f"  {name.replace('_', '-'):<19} {rate.format()} / 100 km"
+                    for name, rate in self.alerts_per_100km.items()
+                ),
+                f"crash-relevant        {self.relevant} situations ({self.relevant_detected} "
+                f"warned, {self.relevant_missed} missed); {self.threats_relevant} of "
+                f"{self.threats} threats",
+                f"  missed share        {self.relevant_miss_rate.format()}",
+                f"  lead time [s]       {self.relevant_lead_time.format()}",
                 f"false alarms / h      {self.false_alarms_per_hour.format()}",
                 f"false alarms / 100 km {self.false_alarms_per_100km.format()}",
                 f"miss rate             {self.miss_rate.format()}",
@@ -100,13 +140,21 @@ class FCWSummary:
         )
 
 
-def event_rates(count: dict, hours: float, km: float, confidence: float = 0.95) -> dict[str, Rate]:
-    """False alarms per hour and per 100 km (exact Poisson), miss rate and false-alarm ratio
-    (Wilson), from event counts (keys as :meth:`FCWMetrics.per_pair`) and exposure [h, km]."""
+def event_rates(count: dict, hours: float, km: float, confidence: float = 0.95) -> dict:
+    """False alarms and each alert class per hour and per 100 km (exact Poisson), miss rates
+    and false-alarm ratio (Wilson), from event counts (keys as :meth:`FCWMetrics.per_pair`)
+    and exposure [h, km]."""
     false_alarms = count["false_alarms"]
     return {
         "false_alarms_per_hour": Rate.poisson(false_alarms, hours, confidence),
         "false_alarms_per_100km": Rate.poisson(false_alarms, km / 100.0, confidence),
         "miss_rate": Rate.proportion(count["missed"], count["threats"], confidence),
         "false_alarm_ratio": Rate.proportion(false_alarms, count["warnings"], confidence),
+        "alerts_per_hour": {c: Rate.poisson(count[c], hours, confidence) for c in ALERT_CLASSES},
+        "alerts_per_100km": {
+            c: Rate.poisson(count[c], km / 100.0, confidence) for c in ALERT_CLASSES
+        },
+        "relevant_miss_rate": Rate.proportion(
+            count["relevant_missed"], count["relevant"], confidence
+        ),
     }

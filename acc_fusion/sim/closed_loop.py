@@ -30,6 +30,7 @@ from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
 from acc_fusion.fusion.config import FUSION_METHODS, FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
+from acc_fusion.metrics.alert_classes import AlertClassConfig, crash_relevant
 from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sensors.faults import Fault
@@ -40,6 +41,7 @@ from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.manoeuvres import SCENARIOS
 from acc_fusion.truth.scripted import make_scenario
+from acc_fusion.warning.kinematics import time_to_collision_braking_lead
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
 from acc_fusion.warning.safety import safety_distances
 from acc_fusion.warning.ttc import time_to_collision
@@ -68,6 +70,8 @@ class SimConfig:
         warning: safety-distance model and warning logic (also used by the oracle).
         driver: reaction time and deceleration of the simulated driver (by default he reacts
             to the imminent alert).
+        alert_classes: when truth says the driver must act (the crash-relevant situations the
+            warnings are classed against, :mod:`acc_fusion.metrics.alert_classes`).
         tolerance: time window [s] within which a warning and an oracle threat match.
         warn_level: the level that counts as a warning in the metrics: 2, imminent (the FCW
             alert; default) or 1, caution.
@@ -85,6 +89,7 @@ class SimConfig:
     fusion: FusionConfig = field(default_factory=FusionConfig)
     warning: WarningConfig = field(default_factory=WarningConfig)
     driver: DriverConfig = field(default_factory=lambda: DriverConfig(react_to_level=IMMINENT))
+    alert_classes: AlertClassConfig = field(default_factory=AlertClassConfig)
     tolerance: float = 1.0
     warn_level: int = IMMINENT
     radar: dict = field(default_factory=dict)
@@ -140,6 +145,7 @@ class StepView:
     levels: dict[str, np.ndarray]
     oracle: np.ndarray
     ttc: np.ndarray
+    relevant: np.ndarray
 
 
 @dataclass
@@ -167,6 +173,7 @@ class Trace:
             "ego_speed": frame.ego_speed[i],
             "ttc": view.ttc[i],
             "oracle_level": int(view.oracle[i]),
+            "crash_relevant": bool(view.relevant[i]),
             "d_caution": d_caution[0] if has else np.nan,
             "d_imminent": d_imminent[0] if has else np.nan,
         }
@@ -182,7 +189,10 @@ class Trace:
 
 
 class FirstWarning:
-    """Records, per run, the true TTC at the onset of the first warning of ``method``."""
+    """Records, per run, the true TTC at the onset of the first warning of ``method``, judged
+    as NHTSA's FCW confirmation test (2013) judges it: the lead keeping its deceleration to a
+    stop (:func:`~acc_fusion.warning.kinematics.time_to_collision_braking_lead`; the
+    constant-speed TTC where the lead does not brake)."""
 
     def __init__(self, n_runs: int, method: str, level: int) -> None:
         self.method, self.level = method, level
@@ -190,7 +200,14 @@ class FirstWarning:
 
     def __call__(self, view: StepView) -> None:
         new = np.isnan(self.ttc) & (view.levels[self.method] >= self.level)
-        self.ttc[new] = view.ttc[new]
+        if new.any():
+            f = view.frame
+            has = f.has_leader
+            ttc = time_to_collision_braking_lead(
+                np.where(has, f.gap, 1.0), f.ego_speed, np.where(has, f.lead_speed, 0.0),
+                np.where(has, f.lead_accel, 0.0),
+            )  # fmt: skip
+            self.ttc[new] = np.where(has, ttc, np.inf)[new]
 
 
 @dataclass
@@ -226,7 +243,8 @@ class _EgoSensors(PairState):
 
 @dataclass
 class Perceived:
-    """What the equipped vehicles know at one step, with the oracle's view of the truth."""
+    """What the equipped vehicles know at one step, with the oracle's view of the truth and
+    the pairs in a crash-relevant situation."""
 
     frame: TruthFrame
     measurements: list[Measurement]
@@ -234,6 +252,7 @@ class Perceived:
     estimates: dict[str, Estimate]
     oracle: np.ndarray
     ttc: np.ndarray
+    relevant: np.ndarray
 
 
 class Perception(PairState):
@@ -241,8 +260,9 @@ class Perception(PairState):
 
     One step of :meth:`step` turns a truth frame into measurements, the ego-speed estimate,
     one :class:`~acc_fusion.fusion.base.Estimate` per method, the oracle's warning level (the
-    warning rule on ground truth) and the true TTC.  :func:`simulate` adds each method's
-    warning logic, the metrics and the driver; the gymnasium environment adds a policy.
+    warning rule on ground truth), the true TTC and the pairs in a crash-relevant situation.
+    :func:`simulate` adds each method's warning logic, the metrics and the driver; the
+    gymnasium environment adds a policy.
     :meth:`resize` makes it perceive the first m pairs only (:mod:`acc_fusion.core.slots`).
     """
 
@@ -306,10 +326,14 @@ class Perception(PairState):
             np.where(has, frame.lead_accel, 0.0),
             valid=has,
         )
-        # True TTC (constant speeds, as the test protocols define it); inf without a leader.
+        # True TTC (constant speeds, as SUMO's SSM device defines it); inf without a leader.
         ttc = time_to_collision(np.where(has, frame.gap, 1.0), rate)
+        relevant = active & crash_relevant(
+            self.config.alert_classes, frame.has_leader, frame.gap, frame.ego_speed,
+            frame.lead_speed, frame.lead_accel,
+        )  # fmt: skip
         ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
-        return Perceived(frame, meas, v_ego, ests, oracle, ttc)
+        return Perceived(frame, meas, v_ego, ests, oracle, ttc, relevant)
 
     def advanced(self) -> None:
         """The source moved one step: this step's acceleration is the next prediction's input."""
@@ -408,11 +432,22 @@ def simulate(
             for m in cfg.methods:
                 levels[m] = logic[m].step(**warning_inputs(p, m, active))
                 metrics[m].update(
-                    frame.t, levels[m], p.oracle, p.ttc, frame.ego_speed, active, collided
+                    frame.t,
+                    levels[m],
+                    p.oracle,
+                    p.ttc,
+                    frame.ego_speed,
+                    active,
+                    collided,
+                    p.relevant,
                 )
             t_last = frame.t
             if on_step is not None:
-                on_step(StepView(frame, p.measurements, p.estimates, levels, p.oracle, p.ttc))
+                on_step(
+                    StepView(
+                        frame, p.measurements, p.estimates, levels, p.oracle, p.ttc, p.relevant
+                    )
+                )
             brake = None
             if driver is not None:  # the brake requests of the slots beyond the prefix: none
                 heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)

@@ -14,7 +14,7 @@ import numpy as np
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.protocols import REQUIREMENTS
-from acc_fusion.metrics.summary import FCWSummary
+from acc_fusion.metrics.summary import ALERT_CLASSES, FCWSummary
 from acc_fusion.sim.closed_loop import FirstWarning, SimConfig, SimResult, simulate
 
 #: Radar clutter of the comparison runs: ghosts of stationary roadside objects, the classic
@@ -46,6 +46,45 @@ def summary_row(method: str, s: FCWSummary) -> dict:
         "miss_rate": s.miss_rate.format(),
         "lead_time_median_s": s.lead_time.median,
     }
+
+
+#: Columns of :func:`class_row`.
+CLASS_COLUMNS = (
+    "method",
+    "crash_relevant_per_100km",
+    "nuisance_per_100km",
+    "sensing_false_per_100km",
+    "relevant_missed",
+    "relevant_miss_rate",
+    "relevant_lead_time_median_s",
+)
+
+
+def class_row(method: str, s: FCWSummary) -> dict:
+    """One method's alerts by class (judged from truth, :mod:`acc_fusion.metrics.alert_classes`)
+    per 100 km, and the crash-relevant situations it missed, with 95 % intervals."""
+    rates = s.alerts_per_100km
+    return {
+        "method": method,
+        **{f"{c}_per_100km": rates[c].format() for c in ALERT_CLASSES},
+        "relevant_missed": f"{s.relevant_missed}/{s.relevant}",
+        "relevant_miss_rate": s.relevant_miss_rate.format(),
+        "relevant_lead_time_median_s": s.relevant_lead_time.median,
+    }
+
+
+def class_table(title: str, summaries: dict[str, FCWSummary]) -> Table:
+    """The alert classes of every method (:func:`class_row`), with what the oracle (the same
+    rule on truth) fired on."""
+    t = Table(title, CLASS_COLUMNS)
+    t.rows += [class_row(m, s) for m, s in summaries.items()]
+    first = next(iter(summaries.values()), None)
+    if first is not None:
+        t.notes.append(
+            f"truth: {first.relevant} crash-relevant situations; the rule on truth (oracle) "
+            f"fired {first.threats} times, {first.threats_relevant} of them crash-relevant"
+        )
+    return t
 
 
 def on_off_table(
@@ -113,6 +152,14 @@ class Comparison:
             f"{c['on']} collisions in {c['runs']} runs with warnings, {c['off']} without",
         ]
         return t
+
+    def classes(self) -> Table:
+        """Per method: alerts per 100 km by class, missed crash-relevant situations."""
+        cfg = self.result.config
+        return class_table(
+            f"Alert classes (judged from truth), {cfg.runs} runs of '{cfg.scenario}'",
+            self.result.summaries,
+        )
 
 
 def compare(config: SimConfig, *, progress: bool = False) -> Comparison:

@@ -12,10 +12,11 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
 from acc_fusion.core.outputs import output_dir, temporary_beside, write_bytes_atomic
+from acc_fusion.core.table import Table
 from acc_fusion.core.validation import check_choice
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
-from acc_fusion.studies.compare import on_off_table
+from acc_fusion.studies.compare import class_table, on_off_table
 from acc_fusion.truth.highway.config import HighwayConfig, HighwayError
 from acc_fusion.truth.highway.source import HighwaySource
 from acc_fusion.warning.logic import WarningConfig
@@ -253,6 +254,11 @@ class HighwayStudy:
             f"with FCW off, {self.on.crashes} with FCW on"
         )
         return t
+
+    def classes(self) -> Table:
+        """Per method (FCW off): alerts per 100 km by class, missed crash-relevant situations."""
+        title = f"Alert classes (judged from truth), {self.config.env}"
+        return class_table(title, self.off.summaries)
 
 
 def highway_study(

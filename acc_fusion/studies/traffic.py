@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.table import Table
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
-from acc_fusion.studies.compare import on_off_table
+from acc_fusion.studies.compare import class_table, on_off_table
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
 from acc_fusion.truth.sumo.source import SumoSource
@@ -143,6 +144,11 @@ class SumoStudy:
             if run.error:
                 t.notes.append(f"SUMO failed during the {label} run: {run.error}")
         return t
+
+    def classes(self) -> Table:
+        """Per method (FCW off): alerts per 100 km by class, missed crash-relevant situations."""
+        title = f"Alert classes (judged from truth), {self.sumocfg.name}"
+        return class_table(title, self.off.summaries)
 
 
 def sumo_study(sumo_config, sim: SimConfig, *, progress: bool = False) -> SumoStudy:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from acc_fusion.core.outputs import write_csv_atomic
 from acc_fusion.metrics.stats import Rate
-from acc_fusion.metrics.summary import event_rates
+from acc_fusion.metrics.summary import ALERT_CLASSES, event_rates
 from acc_fusion.sweep.columns import COUNT_COLUMNS, SUM_COLUMNS
 from acc_fusion.sweep.config import SweepConfig
 
@@ -17,9 +17,9 @@ def aggregate(rows, by: list[str], confidence: float = 0.95):
     """Pool the runs of ``rows`` (a DataFrame of :func:`run_sweep`) by the columns ``by``.
 
     Returns a DataFrame with ``by``, ``runs``, the summed counts and exposure, and per group
-    false alarms per hour and per 100 km (exact Poisson intervals), miss rate and false-alarm
-    ratio (Wilson intervals) as ``<name>``, ``<name>_lo``, ``<name>_hi``, and the mean lead
-    time [s] of the detected threats.
+    false alarms and each alert class per 100 km (and false alarms per hour; exact Poisson
+    intervals), miss rates and false-alarm ratio (Wilson intervals) as ``<name>``,
+    ``<name>_lo``, ``<name>_hi``, and the mean lead time [s] of the detected threats.
     """
     import pandas as pd
 
@@ -31,8 +31,7 @@ def aggregate(rows, by: list[str], confidence: float = 0.95):
         rates = event_rates(counts, float(g["hours"]), float(g["km"]), confidence)
         rec = dict(zip(by, key if isinstance(key, tuple) else (key,), strict=True))
         rec |= {"runs": int(g["runs"]), **counts, "hours": g["hours"], "km": g["km"]}
-        for name, short in _RATE_COLUMNS.items():
-            r = rates[name]
+        for short, r in _rate_columns(rates).items():
             rec |= {short: r.value, f"{short}_lo": r.lo, f"{short}_hi": r.hi}
         rec["lead_time_mean_s"] = (
             g["lead_time_sum_s"] / g["detected"] if g["detected"] else math.nan
@@ -47,7 +46,16 @@ _RATE_COLUMNS = {
     "false_alarms_per_100km": "fa_per_100km",
     "miss_rate": "miss_rate",
     "false_alarm_ratio": "false_alarm_ratio",
+    "relevant_miss_rate": "relevant_miss_rate",
 }
+#: The alert classes' rates per 100 km, one column each.
+_CLASS_COLUMNS = tuple(f"{c}_per_100km" for c in ALERT_CLASSES)
+
+
+def _rate_columns(rates: dict) -> dict[str, Rate]:
+    """The rates of :func:`event_rates` by column name (the alert classes per 100 km too)."""
+    out = {short: rates[name] for name, short in _RATE_COLUMNS.items()}
+    return out | {f"{c}_per_100km": rates["alerts_per_100km"][c] for c in ALERT_CLASSES}
 
 
 def formatted(table) -> list[dict]:
@@ -58,11 +66,13 @@ def formatted(table) -> list[dict]:
     for rec in table.to_dict("records"):
         row = {}
         for c in keep:
-            if c in _RATE_COLUMNS.values():
+            if c in _RATE_COLUMNS.values() or c in _CLASS_COLUMNS:
                 row[c] = Rate(rec[c], rec[f"{c}_lo"], rec[f"{c}_hi"]).format()
             elif c == "missed":
                 row[c] = f"{rec['missed']}/{rec['threats']}"
-            elif c not in ("threats", "detected"):
+            elif c == "relevant_missed":
+                row[c] = f"{rec['relevant_missed']}/{rec['relevant']}"
+            elif c not in ("threats", "detected", "relevant", "relevant_detected"):
                 row[c] = rec[c]
         out.append(row)
     return out

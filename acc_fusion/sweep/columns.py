@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from acc_fusion.metrics.events import COUNTS
+
 #: Event counts of a row (see :meth:`acc_fusion.metrics.events.FCWMetrics.per_pair`).
-COUNT_COLUMNS = ("warnings", "false_alarms", "threats", "detected", "missed", "collisions")
+COUNT_COLUMNS = COUNTS
 
 
 #: Exposure and lead-time columns of a row.
