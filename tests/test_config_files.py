@@ -165,3 +165,17 @@ def test_the_filters_step_is_derived_from_dt():
     assert cfg.fusion.filter.dt == 0.1
     with pytest.raises(ConfigError, match="fusion.filter.dt is the simulation step dt"):
         from_mapping(SimConfig, {"dt": 0.1, "fusion": {"filter": {"dt": 0.2}}})
+
+
+def test_numbers_in_exponent_form_are_numbers_in_yaml_files_and_set_flags(tmp_path, capsys):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("fusion:\n  fdi:\n    alpha: 1e-4\n")
+    code, out, err = run_cli(
+        ["config", "show", "--config", str(cfg), "--set", "alert_classes.ttc_threshold=2e0",
+         "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    rows = {r["key"]: r for r in json.loads(out)}
+    assert rows["fusion.fdi.alpha"]["value"] == 1e-4
+    assert rows["alert_classes.ttc_threshold"]["value"] == 2.0

@@ -7,7 +7,7 @@ import argparse
 
 import yaml
 
-from acc_fusion.core.config import from_mapping, load_mapping
+from acc_fusion.core.config import from_mapping, load_mapping, load_yaml
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_json_atomic
 from acc_fusion.core.plots import rates_figure
@@ -104,7 +104,7 @@ def config_data(args: argparse.Namespace) -> tuple[dict, str]:
             raise ConfigError(f"--set takes KEY=VALUE, got {item!r}")
         field_at(SimConfig, key)  # raises, naming the allowed keys
         try:
-            value = yaml.safe_load(text)
+            value = load_yaml(text)
         except yaml.YAMLError:
             raise ConfigError(f"--set {key}: {text!r} is not a YAML value") from None
         set_path(data, key, value)

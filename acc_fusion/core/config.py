@@ -9,6 +9,7 @@ ones, and :func:`load_mapping` reads TOML (``tomllib``) or YAML (``yaml.safe_loa
 from __future__ import annotations
 
 import dataclasses
+import re
 import sys
 import types
 import typing
@@ -28,6 +29,23 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 T = TypeVar("T")
 
 
+class _YamlLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, reading ``1e-3`` as a number as YAML 1.2 does (YAML 1.1, which
+    PyYAML follows, needs ``1.0e-3`` and reads ``1e-3`` as a string)."""
+
+
+_YamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
+
+
+def load_yaml(text: str) -> Any:
+    """One YAML document, safely (numbers in exponent form without a dot included)."""
+    return yaml.load(text, Loader=_YamlLoader)  # noqa: S506 (a SafeLoader subclass)
+
+
 def load_mapping(path: str | Path) -> dict[str, Any]:
     """Read a TOML (``.toml``) or YAML (``.yaml``/``.yml``) file into a dict."""
     p = Path(path)
@@ -43,7 +61,7 @@ def load_mapping(path: str | Path) -> dict[str, Any]:
     except OSError as exc:
         raise ConfigError(f"config file {str(p)!r} cannot be read: {exc.strerror}") from None
     try:
-        data = tomllib.loads(text) if suffix == ".toml" else yaml.safe_load(text) or {}
+        data = tomllib.loads(text) if suffix == ".toml" else load_yaml(text) or {}
     except (tomllib.TOMLDecodeError, yaml.YAMLError) as exc:
         raise ConfigError(f"config file {str(p)!r} is not valid {suffix[1:]}: {exc}") from None
     if not isinstance(data, dict):

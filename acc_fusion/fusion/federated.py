@@ -86,7 +86,7 @@ class FederatedFilter(Estimator):
     def _track_arrays(self) -> tuple:
         """The arrays :func:`_drop_one` resets: sharing factors (and their initial values),
         confirmation flags and the fault detector's windows (empty without one)."""
-        fdi = self.fdi.arrays()[:6] if self.fdi is not None else _NO_FDI[:6]
+        fdi = self.fdi.arrays()[:7] if self.fdi is not None else _NO_FDI[:7]
         return (self.beta, self._beta0, self._seen, self._needed, self.fdi is not None, *fdi)
 
     def forget(self, pairs):
@@ -173,7 +173,10 @@ class FederatedFilter(Estimator):
         )
         self._nis[:] = nis.T
         if self.fdi is not None:
-            accepted, rejoined = (a.T for a in self.fdi.step(nis.T, reporting.T))
+            accepted, rejoined, manoeuvre = self.fdi.step(nis.T, reporting.T)
+            accepted, rejoined = accepted.T, rejoined.T
+            if manoeuvre.any():
+                self._take_manoeuvre(manoeuvre)
         else:
             accepted, rejoined = reporting, np.zeros_like(reporting)
         for s in s_all:
@@ -214,6 +217,20 @@ class FederatedFilter(Estimator):
             self._drop(lost)
         return (accepted | consumed).any(axis=0)
 
+    def _take_manoeuvre(self, pairs: np.ndarray) -> None:
+        """Raise the acceleration variance of the master and of every local filter of
+        ``pairs (N,)`` by ``init_accel_std²`` (the locals' times their inflation), as
+        :func:`_federated_step` does (:mod:`acc_fusion.fusion.fdi`, "manoeuvre first")."""
+        var = self.config.filter.init_accel_std**2
+        pm = np.array(self.master.p[0])
+        pm[pairs, -1, -1] += var
+        self.master.assign(0, pairs, np.array(self.master.x[0]), pm)
+        infl = self._inflation()
+        for s in range(self.n_sensors):
+            pl = np.array(self.locals.p[s])
+            pl[pairs, -1, -1] += var * infl[s][pairs]
+            self.locals.assign(s, pairs, np.array(self.locals.x[s]), pl)
+
     def _advance_batched(self, z, r, valid):
         """:meth:`_advance` as one call of :func:`_federated_step` (the same arithmetic, in
         the same order, pair by pair: equal to it bit for bit)."""
@@ -225,7 +242,7 @@ class FederatedFilter(Estimator):
             *input_args(self.b, self._u), self.h, z, r, valid, self.initialised,
             self._reported_at, *self._track_arrays(),
             *(fdi.tests() if fdi is not None else _NO_TESTS),
-            fdi.arrays()[6] if fdi is not None else _NO_FDI[6],
+            fdi.arrays()[7] if fdi is not None else _NO_FDI[7],
             self._inflate, self._feedback, self._increments, self.config.beta == "trace",
             self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
             self._coast_limit, self._nis, used,

@@ -89,19 +89,20 @@ def _confirmed(
 _NO_FDI = (
     np.zeros((0, 0, 0)), np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64),
     np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=bool),
-    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=np.int64),
+    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=bool),
+    np.zeros((0, 0), dtype=np.int64),
 )  # fmt: skip
 
 
-_NO_TESTS = (0.0, 0.0, 0.0, 0)
+_NO_TESTS = (0.0, 0.0, 0.0, 0, False)
 
 
 @njit(cache=True)
 def _federated_step(
     xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
-    needed, has_fdi, buf, total, count, pos, isolated, verdict, gate, clip, threshold,
-    common_steps, age, inflate, feedback, increments, trace, fuse_now, accel_var, t,
-    coast_limit, nis, used,
+    needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, gate, clip, threshold,
+    common_steps, manoeuvre_first, age, inflate, feedback, increments, trace, fuse_now,
+    accel_var, t, coast_limit, nis, used,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`FederatedFilter._advance` of every pair, in place, pair by pair.
 
@@ -128,6 +129,7 @@ def _federated_step(
     consumed = np.zeros((n_pairs, n_s), dtype=np.bool_)
     accepted = np.zeros((n_pairs, n_s), dtype=np.bool_)
     rejoined = np.zeros((n_pairs, n_s), dtype=np.bool_)
+    manoeuvre = np.zeros(n_pairs, dtype=np.bool_)
     active = np.zeros((n_s, n_pairs), dtype=np.bool_)
     any_rejoined = False
     for k in range(n_pairs):
@@ -145,7 +147,7 @@ def _federated_step(
                     break
             if first >= 0:
                 _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos,
-                          isolated, verdict)  # fmt: skip
+                          isolated, verdict, suspect)  # fmt: skip
                 p0[:] = 0.0
                 for i in range(m):
                     x0[i] = z[first, k, i]
@@ -166,10 +168,15 @@ def _federated_step(
             else:
                 nis[k, s] = np.nan
         if has_fdi:
-            window_one(k, nis, reporting, gate, clip, threshold, common_steps, buf, total,
-                       count, pos, isolated, verdict, age, accepted, rejoined)  # fmt: skip
+            window_one(k, nis, reporting, gate, clip, threshold, common_steps, manoeuvre_first,
+                       buf, total, count, pos, isolated, verdict, suspect, age, accepted,
+                       rejoined, manoeuvre)  # fmt: skip
         else:
             accepted[k] = reporting[k]
+        if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
+            pm[k, n - 1, n - 1] += accel_var
+            for s in range(n_s):
+                pl[s, k, n - 1, n - 1] += accel_var * _inflation_one(beta[s, k], inflate)
         for s in range(n_s):
             if accepted[k, s]:
                 update_one(xl[s, k], pl[s, k], h, z[s, k], r[s, k], m, pht, kg, s_mat, si,
@@ -208,7 +215,7 @@ def _federated_step(
         if ini and any_isolated and all_out:  # every recently reporting sensor is isolated
             initialised[k] = False
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
-                      verdict)  # fmt: skip
+                      verdict, suspect)  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -248,7 +255,7 @@ def _share_pairs(active, pl, beta, beta0, trace):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _drop_one(
-    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict
+    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect
 ):  # pragma: no cover - compiled
     """Forget pair ``k``'s track state: initial sharing factors, no sensor seen or needed,
     fresh fault-detection windows."""
@@ -257,15 +264,15 @@ def _drop_one(
         seen[s, k] = False
         needed[s, k] = False
     if has_fdi:
-        reset_one(k, buf, total, count, pos, isolated, verdict)
+        reset_one(k, buf, total, count, pos, isolated, verdict, suspect)
 
 
 @njit(cache=True)
 def _drop_pairs(
-    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict
+    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect
 ):  # pragma: no cover - compiled
     """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
     for k in range(pairs.size):
         if pairs[k]:
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
-                      verdict)  # fmt: skip
+                      verdict, suspect)  # fmt: skip
