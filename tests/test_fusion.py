@@ -154,3 +154,21 @@ def test_a_braking_lead_is_a_manoeuvre_not_a_radar_fault(manoeuvre, most):
         assert seen["fed"] <= 1.05 * seen["cen"]
     else:  # the window test alone reads the onset as a radar fault
         assert seen["isolated"] > most and seen["fed"] > 2.0 * seen["cen"]
+
+
+def test_a_report_beyond_the_gate_is_used_when_another_sensor_confirms_it():
+    from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
+
+    fdi = WindowedChiSquare(3, 2, FDIConfig())
+    nis = np.array([[40.0, 1.0], [40.0, 1.0], [40.0, np.nan]])
+    reported = np.array([[True, True], [True, True], [True, False]])
+    r = np.tile(np.diag([0.04, 0.01]), (2, 3, 1, 1))
+    z = np.zeros((2, 3, 2))
+    z[0, :, :] = [30.0, -2.0]  # the radar, beyond its gate in every pair
+    z[1, 0] = [30.1, -2.05]  # pair 0: the camera sees the same
+    z[1, 1] = [33.0, 0.0]  # pair 1: it does not (a spike or a ghost of the radar)
+    accepted, _, _ = fdi.step(nis, reported, z, r)
+    assert accepted[0, 0] and not accepted[1, 0] and not accepted[2, 0]
+    assert accepted[:2, 1].all()
+    # The confirmed report is no evidence of a fault: it stays out of the window.
+    assert fdi.arrays()[2][0, 0] == 0 and fdi.arrays()[2][1, 0] == 1

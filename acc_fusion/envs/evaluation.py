@@ -189,6 +189,9 @@ class Evaluation:
             "missed": f"{s.missed}/{s.threats}",
             "miss_rate": s.miss_rate.format(),
             "lead_time_median_s": s.lead_time.median,
+            "nuisance_per_100km": s.alerts_per_100km["nuisance"].format(),
+            "sensing_false_per_100km": s.alerts_per_100km["sensing_false"].format(),
+            "relevant_missed": f"{s.relevant_missed}/{s.relevant}",
             "collisions": f"{self.collisions}/{self.episodes}",
             "mean_reward": self.mean_reward,
         }
@@ -357,6 +360,9 @@ COLUMNS = (
     "missed",
     "miss_rate",
     "lead_time_median_s",
+    "nuisance_per_100km",
+    "sensing_false_per_100km",
+    "relevant_missed",
     "collisions",
     "mean_reward",
 )
@@ -364,7 +370,9 @@ COLUMNS = (
 
 def comparison_table(evaluations: Sequence[Evaluation]) -> Table:
     """One row per evaluation: false alarms per hour and miss rate with 95 % intervals,
-    median lead time, collisions (episodes), mean reward per episode."""
+    median lead time, nuisance and sensing-false alerts per 100 km and the missed
+    crash-relevant situations (:mod:`acc_fusion.metrics.alert_classes`), collisions
+    (episodes), mean reward per episode."""
 
     if not evaluations:
         raise ConfigError("comparison_table needs at least one evaluation")

@@ -12,7 +12,17 @@ local filter's own innovation with its information share undone).  Two tests use
   more non-isolated sensors of a pair have reported within the last ``common_steps`` steps
   and the latest report of *every one* failed the gate, the cause is common to all of them
   (a manoeuvre the motion model did not expect, such as the ego's own hard braking), so the
-  measurements are used and not counted as evidence of a fault.
+  measurements are used and not counted as evidence of a fault.  Likewise a report beyond
+  the gate that another non-isolated sensor confirms at the same step (their difference
+  :math:`d = z_s - z_o` with :math:`d^\top (R_s + R_o)^{-1} d \le \chi^2_m(p_c)`, the
+  analytical-redundancy check of two sensors measuring one quantity, Isermann 2006, ch. 10)
+  is the road, not a fault: a lead's braking onset shows at once in the radar's precise
+  range-rate, beyond the gate of a model that expected no jerk, and the infrared camera
+  reports the same, while a spike, a ghost or a stuck value disagrees with it.  Measured on
+  the bundled motorway (``make run``): without this check the federated filter's
+  sensing-false alerts were 9.05 per 100 km against 8.71 for the centralized filter (the
+  gate threw away good radar reports at lead manoeuvres, leaving the noisier infrared);
+  with it, 8.64.
 * **Window** (per sensor): the sum of the last W NIS values, each clipped at
   :math:`\chi^2_m(p_c)`, is compared with :math:`\chi^2_{mW}(1-\alpha)`.  A failing sensor is
   *isolated*: left out of the fusion.  Its window is then refilled with its NIS against the
@@ -136,8 +146,12 @@ class WindowedChiSquare(PairState):
             self._suspect, self._age,
         )  # fmt: skip
 
-    def step(self, nis: np.ndarray, reported: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Test one step of NIS values ``(N, S)`` where ``reported (N, S)``.
+    def step(
+        self, nis: np.ndarray, reported: np.ndarray, z: np.ndarray, r: np.ndarray
+    ) -> tuple[np.ndarray, ...]:
+        """Test one step of NIS values ``(N, S)`` where ``reported (N, S)``, with the
+        measurements ``z (S, N, 2)`` and their covariances ``r (S, N, 2, 2)`` (for the
+        cross-check).
 
         Returns ``(accepted, rejoined, manoeuvre)``: the measurements to use in the update,
         the sensors that passed a full window while isolated and rejoin now, and the pairs
@@ -149,6 +163,7 @@ class WindowedChiSquare(PairState):
         manoeuvre = np.zeros(self.isolated.shape[0], dtype=bool)
         _window_step(
             np.ascontiguousarray(nis, dtype=float), np.ascontiguousarray(reported, dtype=bool),
+            np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(r, dtype=float),
             *self.tests(), *self.arrays(), accepted, rejoined, manoeuvre,
         )  # fmt: skip
         return accepted, rejoined, manoeuvre
@@ -156,21 +171,37 @@ class WindowedChiSquare(PairState):
 
 @njit(cache=True)
 def _window_step(
-    nis, reported, gate, clip, threshold, common_steps, manoeuvre_first, buf, total, count, pos,
-    isolated, verdict, suspect, age, accepted, rejoined, manoeuvre,
+    nis, reported, z, r, gate, clip, threshold, common_steps, manoeuvre_first, buf, total,
+    count, pos, isolated, verdict, suspect, age, accepted, rejoined, manoeuvre,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`WindowedChiSquare.step` for every pair, in place (rules in the module docstring)."""
     for i in range(buf.shape[0]):
         window_one(
-            i, nis, reported, gate, clip, threshold, common_steps, manoeuvre_first, buf, total,
-            count, pos, isolated, verdict, suspect, age, accepted, rejoined, manoeuvre,
+            i, nis, reported, z, r, gate, clip, threshold, common_steps, manoeuvre_first, buf,
+            total, count, pos, isolated, verdict, suspect, age, accepted, rejoined, manoeuvre,
         )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
+def confirmed_one(i, s, reported, isolated, z, r, bound):  # pragma: no cover - compiled
+    r"""Whether another non-isolated sensor of pair ``i`` reports at this step what sensor
+    ``s`` reports: :math:`d^\top (R_s + R_o)^{-1} d \le` ``bound``, :math:`d = z_s - z_o`."""
+    for o in range(reported.shape[1]):
+        if o == s or not reported[i, o] or isolated[i, o]:
+            continue
+        d0, d1 = z[s, i, 0] - z[o, i, 0], z[s, i, 1] - z[o, i, 1]
+        a, b = r[s, i, 0, 0] + r[o, i, 0, 0], r[s, i, 0, 1] + r[o, i, 0, 1]
+        c, e = r[s, i, 1, 0] + r[o, i, 1, 0], r[s, i, 1, 1] + r[o, i, 1, 1]
+        det = a * e - b * c
+        if det > 0.0 and (d0 * d0 * e - d0 * d1 * (b + c) + d1 * d1 * a) / det <= bound:
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
 def window_one(
-    i, nis, reported, gate, clip, threshold, common_steps, manoeuvre_first, buf, total, count,
-    pos, isolated, verdict, suspect, age, accepted, rejoined, manoeuvre,
+    i, nis, reported, z, r, gate, clip, threshold, common_steps, manoeuvre_first, buf, total,
+    count, pos, isolated, verdict, suspect, age, accepted, rejoined, manoeuvre,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`_window_step` of pair ``i``: per sensor, the gate verdict (1 pass, 2 fail) and
     its age; the common-cause test over the pair's sensors; the clipped NIS into the window
@@ -190,11 +221,15 @@ def window_one(
     common = n_recent >= 2 and not any_pass
     for s in range(n_sensors):
         rep = reported[i, s]
-        accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or common)
+        # A report beyond the gate that another sensor confirms is the road, not a fault.
+        shared = common or (
+            rep and nis[i, s] > gate and confirmed_one(i, s, reported, isolated, z, r, clip)
+        )
+        accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or shared)
         rejoined[i, s] = False
-        if rep and not common and count[i, s] < 0:  # settling after a manoeuvre: not tested
+        if rep and not shared and count[i, s] < 0:  # settling after a manoeuvre: not tested
             count[i, s] += 1
-        elif rep and not common:
+        elif rep and not shared:
             k = pos[i, s]
             old = buf[i, s, k]
             value = clip if nis[i, s] > clip else nis[i, s]

@@ -173,7 +173,7 @@ class FederatedFilter(Estimator):
         )
         self._nis[:] = nis.T
         if self.fdi is not None:
-            accepted, rejoined, manoeuvre = self.fdi.step(nis.T, reporting.T)
+            accepted, rejoined, manoeuvre = self.fdi.step(nis.T, reporting.T, z, r)
             accepted, rejoined = accepted.T, rejoined.T
             if manoeuvre.any():
                 self._take_manoeuvre(manoeuvre)

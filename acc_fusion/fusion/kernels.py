@@ -168,9 +168,9 @@ def _federated_step(
             else:
                 nis[k, s] = np.nan
         if has_fdi:
-            window_one(k, nis, reporting, gate, clip, threshold, common_steps, manoeuvre_first,
-                       buf, total, count, pos, isolated, verdict, suspect, age, accepted,
-                       rejoined, manoeuvre)  # fmt: skip
+            window_one(k, nis, reporting, z, r, gate, clip, threshold, common_steps,
+                       manoeuvre_first, buf, total, count, pos, isolated, verdict, suspect, age,
+                       accepted, rejoined, manoeuvre)  # fmt: skip
         else:
             accepted[k] = reporting[k]
         if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
