@@ -8,6 +8,7 @@ Commands:
     run          one scenario, closed loop: summary, PNG, trace CSV and JSON summary
     compare      every method on the randomised suite: false alarms, misses, lead time
     conformance  the standard FCW test manoeuvres against the protocols' requirements
+    tune         warning settings: test margin against nuisance alerts in traffic, Pareto front
     sumo         FCW in SUMO traffic (bundled networks or any .sumocfg), FCW on and off
     highway      FCW in highway-env traffic, FCW on and off, rendered replays
     evaluate     a warning policy against the baselines in the gymnasium environment
@@ -34,11 +35,12 @@ from acc_fusion.cli import (
     run,
     sumo,
     sweep,
+    tune,
 )
 from acc_fusion.core.errors import AccFusionError
 
 #: The commands in the order of ``acc-fusion --help``: each module has ``add_parser`` and ``run``.
-COMMANDS = (run, compare, conformance, sumo, highway, evaluate, sweep, estimation, config)
+COMMANDS = (run, compare, conformance, tune, sumo, highway, evaluate, sweep, estimation, config)
 
 
 class _Parser(argparse.ArgumentParser):

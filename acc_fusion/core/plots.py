@@ -221,3 +221,27 @@ def warning_frame(history, title: str = "") -> np.ndarray:
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)
     return image
+
+
+def tradeoff_figure(margin, rate, lo, hi, front, labels, title: str, target: float = 1.0):
+    """Conformance margin [s] against a rate per 100 km (with its interval), one point per
+    setting, the Pareto front joined; the pass line (margin 0) and the ``target`` rate drawn."""
+    margin, rate = np.asarray(margin, dtype=float), np.asarray(rate, dtype=float)
+    err = np.array([rate - np.asarray(lo), np.asarray(hi) - rate])
+    front = np.asarray(front, dtype=bool)
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    ax.errorbar(margin, rate, yerr=err, fmt="o", color="0.45", ms=5, capsize=3, label="settings")
+    order = np.argsort(margin[front])
+    ax.plot(margin[front][order], rate[front][order], "-o", color="C3", ms=6, label="Pareto front")
+    for x, y, text in zip(margin, rate, labels, strict=True):
+        ax.annotate(text, (x, y), fontsize=7, xytext=(4, 3), textcoords="offset points")
+    ax.axvline(0.0, color="k", lw=0.8, ls="--", label="passes the tests (margin >= 0)")
+    ax.axhline(target, color="C2", lw=0.8, ls="--", label=f"target {target:g} per 100 km")
+    ax.set_yscale("symlog", linthresh=0.1)  # a rate of 0 stays on the plot
+    ax.set_xlabel("conformance margin [s] (smallest over NHTSA LVS, LVD, LVM)")
+    ax.set_ylabel("nuisance alerts per 100 km (95 % interval)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return fig

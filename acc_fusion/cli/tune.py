@@ -1,0 +1,90 @@
+"""``acc-fusion tune``: a grid of warning settings, each judged by its margin on the NHTSA FCW
+tests and the nuisance alerts it raises in recorded SUMO traffic, with the Pareto front."""
+
+from __future__ import annotations
+
+import argparse
+
+from acc_fusion.cli.common import add_config_arguments, config_data, positive_float, positive_int
+from acc_fusion.core.config import load_yaml
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.plots import tradeoff_figure
+from acc_fusion.studies.tune import point_configs, record_sumo, tune, tune_table
+from acc_fusion.truth.sumo.config import SumoConfig
+from acc_fusion.truth.sumo.nets import resolve_sumocfg
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``tune`` command."""
+    p = subparsers.add_parser(
+        "tune",
+        help="warning settings: NHTSA test margin against nuisance alerts in traffic",
+        description="For every point of a grid of warning settings (--grid KEY=[V1, V2, ...], "
+        "dotted config paths, repeatable: a Cartesian product), measure the margin on the "
+        "NHTSA FCW confirmation tests (noisy sensors, 7 trials) and the rule's alerts per "
+        "100 km by class on the truth of one SUMO run (recorded once, perfect sensing). "
+        "Prints the table with the Pareto front; --out adds tune.csv and tune.png.",
+    )
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
+    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
+    p.add_argument(
+        "--end", type=positive_float, default=300.0, help="simulated seconds (default 300)"
+    )
+    p.add_argument(
+        "--grid",
+        action="append",
+        required=True,
+        metavar="KEY=VALUES",
+        help="a swept setting and its values as a YAML list, e.g. "
+        "'warning.params.decel_imminent=[4, 5, 6]' (with --set warning.model=...)",
+    )
+    p.add_argument(
+        "--trials", type=positive_int, default=7, help="trials per test manoeuvre (default 7)"
+    )
+    add_config_arguments(p)
+    p.add_argument("--out", metavar="DIR", help="also write tune.csv and tune.png here")
+    return p
+
+
+def _axes(items: list[str]) -> dict[str, list]:
+    axes = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ConfigError(f"--grid takes KEY=[V1, V2, ...], got {item!r}")
+        values = load_yaml(text)
+        if not isinstance(values, list) or not values:
+            raise ConfigError(f"--grid {key}: give a non-empty list of values, got {text!r}")
+        axes[key] = values
+    return axes
+
+
+def run(args: argparse.Namespace) -> int:
+    axes = _axes(args.grid)
+    base, _ = config_data(args)
+    configs = point_configs(base, axes)
+    out = output_dir(args.out) if args.out else None
+    path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
+    seed = int(base.get("seed", 0))
+    recording = record_sumo(SumoConfig(sumocfg=str(path), end=args.end, seed=seed), progress=True)
+    recording.name = path.name
+    points = tune(configs, recording, trials=args.trials, progress=True)
+    table = tune_table(points, recording)
+    print(table.format())
+    if out is not None:
+        write_csv_atomic(out / "tune.csv", table.columns, table.rows)
+        rates = [p.traffic.alerts_per_100km["nuisance"] for p in points]
+        figure = tradeoff_figure(
+            [p.margin_s for p in points],
+            [r.value for r in rates],
+            [r.lo for r in rates],
+            [r.hi for r in rates],
+            [p.pareto for p in points],
+            [", ".join(f"{v}" for v in p.settings.values()) for p in points],
+            f"{table.title}\n{', '.join(axes)}",
+        )
+        save_figure_atomic(figure, out / "tune.png")
+        print(f"wrote {out / 'tune.csv'} and {out / 'tune.png'}")
+    return 0
