@@ -11,6 +11,7 @@ Commands:
     tune         warning settings: test margin against nuisance alerts in traffic, Pareto front
     sumo         FCW in SUMO traffic (bundled networks or any .sumocfg), FCW on and off
     highway      FCW in highway-env traffic, FCW on and off, rendered replays
+    replay       recorded traffic (highD, NGSIM, trajectory CSV) through the pipeline, open loop
     evaluate     a warning policy against the baselines in the gymnasium environment
     sweep        Monte Carlo sweeps (local processes or Ray), resumable, ROC curves, report
     estimation   federated fusion against its baselines (RMSE, NEES, cost per pair-step)
@@ -32,6 +33,7 @@ from acc_fusion.cli import (
     estimation,
     evaluate,
     highway,
+    replay,
     run,
     sumo,
     sweep,
@@ -40,7 +42,19 @@ from acc_fusion.cli import (
 from acc_fusion.core.errors import AccFusionError
 
 #: The commands in the order of ``acc-fusion --help``: each module has ``add_parser`` and ``run``.
-COMMANDS = (run, compare, conformance, tune, sumo, highway, evaluate, sweep, estimation, config)
+COMMANDS = (
+    run,
+    compare,
+    conformance,
+    tune,
+    sumo,
+    highway,
+    replay,
+    evaluate,
+    sweep,
+    estimation,
+    config,
+)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,3 @@
+"""Recorded traffic as truth: readers of highD, NGSIM and mapped trajectory CSV files, the
+follower→leader pairs of a recording, and :class:`~acc_fusion.truth.replay.source.ReplaySource`,
+which replays them through the FCW pipeline (open loop only)."""

@@ -1,0 +1,145 @@
+r"""The follower→leader pairs of a window of rows, in track order.
+
+Every vehicle of the window is an ego, frame by frame (its *track*, cut into *segments* where
+a frame is missing); where it has a leader at a frame, that frame is a pair-step with
+
+.. math::
+
+    g = s_l - \ell_l - s_f, \qquad \dot g = u_l - u_f,
+
+bumper to bumper (:mod:`acc_fusion.truth.replay.rows`).  The leader is the data set's own
+(``precedingId``, ``Preceding``, a mapped ``leader`` column) or, when the file has none or
+``recompute`` is asked for, the nearest vehicle ahead in the same group and lane at that frame
+(:func:`recomputed_leaders`).  A leader that the window does not hold at that frame (it left
+the recorded section, or the window) counts as no leader.  A new leader is a new target: its
+id is the ``leader_id`` of the :class:`~acc_fusion.truth.frame.TruthFrame`, so the filters
+re-initialise on it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from acc_fusion.truth.replay.rows import Rows
+
+
+@dataclass
+class Pairs:
+    """Per row of a window, in track order (vehicle by vehicle, frame by frame), ``(M,)``.
+
+    Attributes:
+        vid: the ego vehicle's id.
+        start: the row starts a segment (a new vehicle, or a frame missing before it).
+        ego_speed, ego_accel: the ego's speed [m/s] and acceleration [m/s²].
+        leader_id: the leader's vehicle id, -1 where none.
+        gap: bumper-to-bumper gap [m] (NaN where no leader).
+        lead_speed, lead_accel, lead_length: the leader's speed, acceleration, length.
+        lateral_offset: the leader's lateral position minus the ego's [m] (0 where unknown).
+        ref: the data set's own figures (:data:`~acc_fusion.truth.replay.rows.REFERENCE_COLUMNS`).
+        duplicates: rows dropped because their (frame, vehicle) came before.
+    """
+
+    vid: np.ndarray
+    start: np.ndarray
+    ego_speed: np.ndarray
+    ego_accel: np.ndarray
+    leader_id: np.ndarray
+    gap: np.ndarray
+    lead_speed: np.ndarray
+    lead_accel: np.ndarray
+    lead_length: np.ndarray
+    lateral_offset: np.ndarray
+    ref: dict[str, np.ndarray] = field(default_factory=dict)
+    duplicates: int = 0
+
+    def __len__(self) -> int:
+        return int(self.vid.shape[0])
+
+    @property
+    def has_leader(self) -> np.ndarray:
+        """Rows with a leader."""
+        return self.leader_id >= 0
+
+
+def by_frame(rows: Rows) -> tuple[Rows, np.ndarray, int]:
+    """``rows`` sorted by frame then vehicle, duplicates (same frame and vehicle) dropped;
+    also the sort keys and the number of duplicates."""
+    vehicles, dense = np.unique(rows.vid, return_inverse=True)
+    key = rows.frame * np.int64(vehicles.size) + dense
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    dup = np.zeros(key.size, dtype=bool)
+    dup[1:] = key[1:] == key[:-1]
+    return rows.take(order[~dup]), key[~dup], int(dup.sum())
+
+
+def file_leaders(rows: Rows, key: np.ndarray) -> np.ndarray:
+    """Row index of each row's leader from the file's leader column (-1: none, or not held
+    at that frame); ``rows`` and ``key`` as :func:`by_frame` returns them."""
+    vehicles = np.unique(rows.vid)
+    lead = rows.leader
+    j = np.minimum(np.searchsorted(vehicles, lead), vehicles.size - 1)
+    known = (lead >= 0) & (vehicles[j] == lead)
+    want = rows.frame * np.int64(vehicles.size) + j
+    pos = np.minimum(np.searchsorted(key, want), key.size - 1)
+    found = known & (key[pos] == want)
+    return np.where(found, pos, -1)
+
+
+def recomputed_leaders(rows: Rows) -> np.ndarray:
+    """Row index of each row's leader recomputed from positions and lanes: the vehicle with
+    the next larger front position :math:`s` in the same frame, group and lane (-1: none)."""
+    order = np.lexsort((rows.s, rows.lane, rows.group, rows.frame))
+    f, g, ln = rows.frame[order], rows.group[order], rows.lane[order]
+    same = (f[1:] == f[:-1]) & (g[1:] == g[:-1]) & (ln[1:] == ln[:-1])
+    leader = np.full(len(rows), -1, dtype=np.int64)
+    leader[order[:-1][same]] = order[1:][same]
+    return leader
+
+
+def leader_agreement(rows: Rows) -> tuple[int, int]:
+    """How many rows have the same leader in the file's column and recomputed, of the rows
+    that have a leader in either (``rows`` must have a leader column)."""
+    rows, key, _ = by_frame(rows)
+    a, b = file_leaders(rows, key), recomputed_leaders(rows)
+    either = (a >= 0) | (b >= 0)
+    return int((either & (a == b)).sum()), int(either.sum())
+
+
+def build_pairs(rows: Rows, recompute: bool = False) -> Pairs:
+    """The pairs of ``rows`` in track order; leaders from the file's column unless it has
+    none or ``recompute``."""
+    rows, key, duplicates = by_frame(rows)
+    if rows.leader is None or recompute:
+        lead = recomputed_leaders(rows)
+    else:
+        lead = file_leaders(rows, key)
+    track = np.lexsort((rows.frame, rows.vid))
+    rows, lead = rows.take(track), lead[track]
+    inverse = np.empty_like(track)
+    inverse[track] = np.arange(track.size)
+    has = lead >= 0
+    lr = np.where(has, inverse[np.where(has, lead, 0)], 0)
+    start = np.ones(len(rows), dtype=bool)
+    start[1:] = (rows.vid[1:] != rows.vid[:-1]) | (rows.frame[1:] != rows.frame[:-1] + 1)
+
+    def lead_of(x: np.ndarray) -> np.ndarray:
+        return np.where(has, x[lr], np.nan)
+
+    lateral = np.nan_to_num(lead_of(rows.lat) - rows.lat, nan=0.0)
+    return Pairs(
+        vid=rows.vid,
+        start=start,
+        ego_speed=rows.speed,
+        ego_accel=rows.accel,
+        leader_id=np.where(has, rows.vid[lr], -1),
+        gap=lead_of(rows.s - rows.length) - rows.s,
+        lead_speed=lead_of(rows.speed),
+        lead_accel=lead_of(rows.accel),
+        lead_length=lead_of(rows.length),
+        lateral_offset=lateral,
+        ref=rows.ref,
+        duplicates=duplicates,
+    )

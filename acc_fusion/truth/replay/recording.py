@@ -1,0 +1,100 @@
+"""A recording read in windows of frames: the base of the format readers.
+
+A recording is read twice, each time streamed (:mod:`~acc_fusion.truth.replay.csvfile`): once
+for its frame column only, to count the rows of every frame (:meth:`Recording.windows` then
+cuts the frames into windows of at most ``max_rows`` rows), then once per window for the rows
+of that window's frames.  A window is the unit the replay batches: all its vehicles are
+packed into the pipeline's slots at once, and no more than one window's rows are in memory.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.truth.replay import csvfile
+from acc_fusion.truth.replay.rows import Rows
+
+#: Rows of a window by default (about 0.2 GB of arrays).
+MAX_ROWS = 2_000_000
+
+
+class Recording(ABC):
+    """One recording of a data set (a highD recording, an NGSIM location, a CSV file).
+
+    Subclasses set ``label`` (its name in the tables), ``dt`` (the frame period [s]),
+    ``path`` (the trajectory file), ``numbers`` / ``strings`` / ``where`` (what
+    :func:`~acc_fusion.truth.replay.csvfile.stream` reads) and implement :meth:`_frames` and
+    :meth:`_rows`.
+    """
+
+    label: str
+    dt: float
+    #: What the data set's headway columns measure: ``"gap"`` (bumper to bumper) or
+    #: ``"spacing"`` (front to front, the gap plus the leader's length).
+    headway_basis: str = "gap"
+    path: Path
+    numbers: dict[str, str]
+    strings: dict[str, str] | None = None
+    where: tuple[str, str] | None = None
+
+    def _stream(self, names: tuple[str, ...] | None = None) -> Iterator[dict[str, np.ndarray]]:
+        """The file's batches, of the columns ``names`` (default: all of :attr:`numbers`)."""
+        numbers = self.numbers if names is None else {k: self.numbers[k] for k in names}
+        yield from csvfile.stream(self.path, numbers, strings=self.strings, where=self.where)
+
+    @abstractmethod
+    def _frames(self, batch: dict[str, np.ndarray]) -> np.ndarray:
+        """The integer frame index of every row of ``batch``."""
+
+    @abstractmethod
+    def _rows(self, batch: dict[str, np.ndarray], frame: np.ndarray) -> Rows:
+        """The rows of ``batch`` (their frames ``frame``) as :class:`Rows`."""
+
+    #: The columns :meth:`_frames` needs.
+    frame_columns: tuple[str, ...] = ("frame",)
+
+    def windows(self, max_rows: int = MAX_ROWS) -> list[tuple[int, int, int]]:
+        """Frame ranges ``[f0, f1)`` covering every row, each of at most ``max_rows`` rows
+        (or one frame, if a single frame has more), with their row counts (computed once)."""
+        if getattr(self, "_windows", None) is None or self._windows[0] != max_rows:
+            self._windows = (max_rows, self._cut(max_rows))
+        return self._windows[1]
+
+    def _cut(self, max_rows: int) -> list[tuple[int, int, int]]:
+        """The windows of :meth:`windows`, from one pass over the frame column."""
+        if max_rows < 1:
+            raise ConfigError(f"max_rows must be >= 1, got {max_rows}")
+        counts = np.zeros(0, dtype=np.int64)
+        for batch in self._stream(self.frame_columns):
+            frame = self._frames(batch)
+            if frame.size and frame.min() < 0:
+                raise ConfigError(f"{self.path}: frame indices must be >= 0")
+            c = np.bincount(frame, minlength=counts.size)
+            c[: counts.size] += counts
+            counts = c
+        cum = np.cumsum(counts)
+        bounds, start, base = [], 0, 0
+        while start < counts.size:
+            end = int(np.searchsorted(cum, base + max_rows, side="right"))
+            end = max(end, start + 1)
+            bounds.append((start, min(end, counts.size)))
+            base = int(cum[min(end, counts.size) - 1])
+            start = end
+        sized = [(a, b, int(cum[b - 1] - (cum[a - 1] if a else 0))) for a, b in bounds]
+        return [w for w in sized if w[2] > 0]
+
+    def rows(self, f0: int, f1: int) -> Rows | None:
+        """The rows of frames ``[f0, f1)`` (``None`` if there are none)."""
+        parts = []
+        for batch in self._stream():
+            frame = self._frames(batch)
+            keep = (frame >= f0) & (frame < f1)
+            if keep.any():
+                part = {k: v[keep] for k, v in batch.items()}
+                parts.append(self._rows(part, frame[keep]))
+        return Rows.concat(parts) if parts else None

@@ -1,0 +1,294 @@
+r"""Recorded traffic as a truth source: :class:`ReplaySource` replays the pairs of highD,
+NGSIM or mapped CSV recordings through the FCW pipeline.
+
+Open loop only
+    A recorded driver cannot react to a warning: the source replays what was recorded, and
+    :func:`~acc_fusion.sim.closed_loop.simulate` refuses to close the loop on it
+    (``accepts_brakes = False``).  The figures are false alarms and alert classes on human
+    driving, not collisions avoided.
+
+Batching: slots play tracks back to back
+    The pairs of a recording are independent in open loop, so the source does not replay the
+    recording's clock, where only the 50 to 100 vehicles in view at a time would be
+    batched.  It cuts each window of a recording (:mod:`~acc_fusion.truth.replay.recording`)
+    into *segments* (one vehicle's consecutive frames) and packs them into ``slots``, longest
+    first, each into the slot that frees first (the LPT rule of Graham, *Bounds on
+    multiprocessing timing anomalies*, SIAM J. Appl. Math. 17, 1969).  A slot plays its
+    segments one after the other; each new segment is a new vehicle in that slot
+    (:attr:`reassigned`, so every stage starts afresh), every step advances all slots by one
+    frame of the data (``dt`` = the recording's frame period).  The frame's ``t`` is the
+    replay's clock, not the recording's.  A vehicle crossing a window's end continues as a new
+    segment in the next window (its filters re-initialise); windows hold millions of rows,
+    so this touches a few vehicles per window.
+
+Each slot's truth at a step is its row's :class:`~acc_fusion.truth.replay.pairs.Pairs` entry:
+ego speed and acceleration, and, where the ego has a leader, the gap, the leader's speed,
+acceleration and id, and the lateral offset.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.validation import check_choice
+from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.replay.crosscheck import CrossCheck
+from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
+from acc_fusion.truth.replay.highd import highd_recordings
+from acc_fusion.truth.replay.ngsim import ngsim_recordings
+from acc_fusion.truth.replay.pairs import Pairs, build_pairs, leader_agreement
+from acc_fusion.truth.replay.recording import MAX_ROWS, Recording
+
+#: The formats a recording can have.
+FORMATS = ("highd", "ngsim", "csv")
+
+
+@dataclass(frozen=True)
+class ReplayConfig:
+    """What to replay and how.
+
+    Attributes:
+        format: ``highd``, ``ngsim`` or ``csv``.
+        path: highD: the folder of the ``NN_*.csv`` files (or one ``NN_tracks.csv``); NGSIM
+            and csv: the trajectory file.
+        recordings: highD: the recording numbers (default: all in the folder); NGSIM: the
+            values of the ``Location`` column to replay, one recording each (default: the
+            whole file as one); csv: unused.
+        mapping: csv: the TOML/YAML file of the column mapping
+            (:class:`~acc_fusion.truth.replay.generic.CsvMapping`; default: its defaults).
+        recompute_leaders: recompute the leaders from lanes and positions even where the
+            file names them.
+        slots: pairs replayed at once (the batch width N).
+        max_rows: rows of a window (what is in memory at once).
+    """
+
+    format: str
+    path: str
+    recordings: tuple[str, ...] = ()
+    mapping: str | None = None
+    recompute_leaders: bool = False
+    slots: int = 2048
+    max_rows: int = MAX_ROWS
+
+    def __post_init__(self) -> None:
+        check_choice("format", self.format, FORMATS)
+        if not 1 <= self.slots <= 1_000_000:
+            raise ConfigError(f"slots must be in [1, 1000000], got {self.slots}")
+        if self.max_rows < 1:
+            raise ConfigError(f"max_rows must be >= 1, got {self.max_rows}")
+        object.__setattr__(self, "recordings", tuple(str(r) for r in self.recordings))
+
+    def open(self) -> list[Recording]:
+        """The recordings to replay (their files checked and their headers read)."""
+        if self.format == "highd":
+            numbers = []
+            for r in self.recordings:
+                if not r.isdigit():
+                    raise ConfigError(f"a highD recording is a number, got {r!r}")
+                numbers.append(int(r))
+            recs: list[Recording] = list(highd_recordings(self.path, numbers))
+        elif self.format == "ngsim":
+            recs = list(ngsim_recordings(self.path, list(self.recordings)))
+        else:
+            recs = [CsvRecording(self.path, CsvMapping.load(self.mapping))]
+        rates = {round(1.0 / r.dt, 6) for r in recs}
+        if len(rates) > 1:
+            raise ConfigError(
+                f"the recordings have different frame rates ({', '.join(map(str, rates))} Hz); "
+                "replay them separately"
+            )
+        return recs
+
+
+@dataclass
+class RecordingStats:
+    """What was replayed of one recording.
+
+    Attributes:
+        label: the recording's name.
+        leaders: ``"file"`` (the data set's leader column) or ``"recomputed"``.
+        hours, km: driving replayed (every vehicle, with or without a leader).
+        vehicles: vehicles (a vehicle in two windows counts twice).
+        pairs: distinct follower→leader pairs.
+        pair_steps: rows with a leader.
+        duplicates: rows dropped for repeating a (frame, vehicle).
+        agree, either: rows whose file and recomputed leaders agree, of those with a leader
+            in either (only with a leader column).
+        crosscheck: the cross-check and headway distribution.
+    """
+
+    label: str
+    leaders: str
+    hours: float = 0.0
+    km: float = 0.0
+    vehicles: int = 0
+    pairs: int = 0
+    pair_steps: int = 0
+    duplicates: int = 0
+    agree: int = 0
+    either: int = 0
+    crosscheck: CrossCheck = field(default_factory=CrossCheck)
+
+
+def pack(start: np.ndarray, slots: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pack the segments of a track-ordered window (``start``: a segment begins at that row)
+    into ``slots``: the row index each slot plays at each step, ``(T, slots)`` with -1 where
+    idle, and where a segment begins, ``(T, slots)`` bool (LPT: longest segment first, into
+    the slot that frees first)."""
+    first = np.flatnonzero(start)
+    length = np.diff(np.append(first, start.size))
+    heap = [(0, j) for j in range(slots)]
+    at = np.empty(first.size, dtype=np.int64)
+    slot = np.empty(first.size, dtype=np.int64)
+    for i in np.argsort(-length, kind="stable"):
+        load, j = heapq.heappop(heap)
+        at[i], slot[i] = load, j
+        heapq.heappush(heap, (load + int(length[i]), j))
+    steps = int((at + length).max()) if first.size else 0
+    index = np.full((steps, slots), -1, dtype=np.int64)
+    begins = np.zeros((steps, slots), dtype=bool)
+    within = np.arange(start.size) - np.repeat(first, length)
+    index[np.repeat(at, length) + within, np.repeat(slot, length)] = np.arange(start.size)
+    begins[at, slot] = True
+    return index, begins
+
+
+class ReplaySource(SlotSource):
+    """The recordings of ``config`` replayed as ``config.slots`` slots (see the module
+    docstring); the interface :func:`~acc_fusion.sim.closed_loop.simulate` drives.
+
+    Attributes:
+        stats: per recording label, its :class:`RecordingStats` (complete when :attr:`done`).
+    """
+
+    accepts_brakes = False
+
+    def __init__(self, config: ReplayConfig, *, progress: bool = False) -> None:
+        self.config = config
+        recordings = config.open()
+        self.dt = recordings[0].dt
+        self.n_pairs = config.slots
+        self.stats = {
+            r.label: RecordingStats(r.label, "file", crosscheck=CrossCheck(r.headway_basis))
+            for r in recordings
+        }
+        self._plan = [(r, f0, f1) for r in recordings for f0, f1, _ in r.windows(config.max_rows)]
+        #: An upper bound of the steps: every step plays at least one row.
+        self.n_steps = sum(m for r in recordings for *_, m in r.windows(config.max_rows))
+        self._t = 0.0
+        self._k = 0
+        self._done = False
+        self._collided = np.zeros(self.n_pairs, dtype=bool)
+        self._collision_speed = np.full(self.n_pairs, np.nan)
+        self._bar = tqdm(
+            total=len(self._plan), unit="window", desc="replay", disable=None if progress else True
+        )
+        self._next = 0
+        if not self._load():
+            raise ConfigError(f"{config.path}: the recording holds no rows")
+
+    @property
+    def t(self) -> float:
+        return self._t
+
+    @property
+    def done(self) -> bool:
+        return self._done
+
+    def close(self) -> None:
+        self._bar.close()
+
+    def _load(self) -> bool:
+        """Read, pair and pack the next window with rows; ``False`` after the last one."""
+        while self._next < len(self._plan):
+            rec, f0, f1 = self._plan[self._next]
+            self._next += 1
+            self._bar.update(1)
+            rows = rec.rows(f0, f1)
+            if rows is None:
+                continue
+            stats = self.stats[rec.label]
+            recompute = self.config.recompute_leaders or rows.leader is None
+            stats.leaders = "recomputed" if recompute else "file"
+            pairs = build_pairs(rows, recompute=recompute)
+            self._account(stats, pairs, rec.dt)
+            if rows.leader is not None:
+                agree, either = leader_agreement(rows)
+                stats.agree += agree
+                stats.either += either
+            self._pairs = _with_idle_row(pairs)
+            self._index, self._begins = pack(pairs.start, self.n_pairs)
+            self._index[self._index < 0] = len(pairs)
+            self._k = 0
+            self._set_frame()
+            return True
+        return False
+
+    @staticmethod
+    def _account(stats: RecordingStats, p: Pairs, dt: float) -> None:
+        has = p.has_leader
+        stats.hours += len(p) * dt / 3600.0
+        stats.km += float(np.maximum(p.ego_speed, 0.0).sum()) * dt / 1000.0
+        stats.vehicles += int(np.unique(p.vid).size)
+        key = p.vid[has] * (int(p.leader_id.max()) + 1) + p.leader_id[has]
+        stats.pairs += int(np.unique(key).size)
+        stats.pair_steps += int(has.sum())
+        stats.duplicates += p.duplicates
+        stats.crosscheck.add(p)
+
+    def _set_frame(self) -> None:
+        """The frame of step ``_k`` of the current window."""
+        rows = self._index[self._k]
+        p = self._pairs
+        self._active = rows < len(p.vid) - 1
+        self._reassigned = self._begins[self._k].copy()
+        self._frame = TruthFrame.from_arrays(
+            self._t,
+            p.ego_speed[rows],
+            p.ego_accel[rows],
+            p.gap[rows],
+            p.lead_speed[rows],
+            p.lead_accel[rows],
+            p.leader_id[rows],
+            p.lateral_offset[rows],
+        )
+
+    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+        """The next step (the next window's first, after a window's last)."""
+        self._t += self.dt
+        self._k += 1
+        if self._k < self._index.shape[0]:
+            self._set_frame()
+        elif not self._load():
+            self._done = True
+            self._bar.close()
+            self._index = np.full((1, self.n_pairs), len(self._pairs.vid) - 1)
+            self._begins = np.zeros((1, self.n_pairs), dtype=bool)
+            self._k = 0
+            self._set_frame()
+        return self._frame
+
+
+def _with_idle_row(p: Pairs) -> Pairs:
+    """``p`` with one more row: an idle slot's (no leader, standing still)."""
+
+    def more(x: np.ndarray, value) -> np.ndarray:
+        return np.append(x, np.array([value], dtype=x.dtype))
+
+    return Pairs(
+        vid=more(p.vid, -1),
+        start=more(p.start, True),
+        ego_speed=more(p.ego_speed, 0.0),
+        ego_accel=more(p.ego_accel, 0.0),
+        leader_id=more(p.leader_id, -1),
+        gap=more(p.gap, np.nan),
+        lead_speed=more(p.lead_speed, np.nan),
+        lead_accel=more(p.lead_accel, np.nan),
+        lead_length=more(p.lead_length, np.nan),
+        lateral_offset=more(p.lateral_offset, 0.0),
+    )

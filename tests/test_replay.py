@@ -1,0 +1,177 @@
+"""Recorded traffic as truth: the readers of highD, NGSIM and mapped CSV files (written here
+from a simulated ground truth), the pairs, the cross-check and the replay source."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.truth.replay.crosscheck import CrossCheck
+from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
+from acc_fusion.truth.replay.highd import HighDRecording
+from acc_fusion.truth.replay.ngsim import NgsimRecording
+from acc_fusion.truth.replay.pairs import build_pairs, leader_agreement
+from acc_fusion.truth.replay.source import ReplayConfig, ReplaySource, pack
+from acc_fusion.truth.replay.synthetic import (
+    simulate_traffic,
+    write_csv,
+    write_highd,
+    write_ngsim,
+)
+
+
+@pytest.fixture(scope="module")
+def traffic():
+    """40 s of two lanes per carriageway at 25 Hz, one lane change."""
+    return simulate_traffic(lanes=2, duration=40.0, dt=0.04, seed=3)
+
+
+@pytest.fixture(scope="module")
+def ngsim_traffic():
+    return simulate_traffic(lanes=2, duration=40.0, dt=0.1, seed=4)
+
+
+def _rows(recording):
+    (f0, f1, _), *_ = recording.windows()
+    return recording.rows(f0, f1)
+
+
+def _truth_gap_by_row(traffic, pairs, keep=None):
+    """The simulated gap of each replayed row (matched by vehicle and order)."""
+    keep = np.ones(traffic.vid.size, dtype=bool) if keep is None else keep
+    gap = traffic.gap()[keep]
+    order = np.lexsort((traffic.frame[keep], traffic.vid[keep]))
+    assert np.array_equal(traffic.vid[keep][order], pairs.vid)
+    return gap[order]
+
+
+def test_highd_gaps_are_the_simulated_ones_in_both_directions(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 7)
+    pairs = build_pairs(_rows(HighDRecording(tmp_path, 7)))
+    truth = _truth_gap_by_row(traffic, pairs)
+    has = np.isfinite(truth)
+    assert np.array_equal(has, pairs.has_leader)
+    for direction in (1, 2):  # upper (driving left) and lower (driving right) carriageway
+        sel = has & (np.sort(traffic.direction) == direction)  # rows per vehicle: same order
+        sel = has & (traffic.direction[np.lexsort((traffic.frame, traffic.vid))] == direction)
+        assert sel.sum() > 1000
+        assert np.abs(pairs.gap[sel] - truth[sel]).max() < 0.02  # files round to 0.01 m
+    assert pairs.ego_speed.min() >= 0.0  # speeds along the driving direction
+
+
+def test_highd_cross_check_against_dhw_thw_ttc(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 1)
+    check = CrossCheck("gap")
+    check.add(build_pairs(_rows(HighDRecording(tmp_path, 1))))
+    for name in ("headway", "thw", "ttc"):
+        figure = check.figures[name]
+        assert figure.compared > 500, name
+        assert figure.share_within == 1.0, name
+    assert abs(check.figures["headway"].mean_diff) < 0.005  # dhw is bumper to bumper here
+
+
+def test_highd_cross_check_sees_a_front_to_front_headway(traffic, tmp_path):
+    """Had highD's dhw been measured front to front, the cross-check would show it."""
+    write_highd(traffic, tmp_path, 1)
+    rec = HighDRecording(tmp_path, 1)
+    pairs = build_pairs(_rows(rec))
+    pairs.ref["headway"] = pairs.ref["headway"] + pairs.lead_length  # front to front
+    check = CrossCheck("gap")
+    check.add(pairs)
+    mean_length = np.nanmean(pairs.lead_length)
+    assert check.figures["headway"].share_within < 0.01
+    assert check.figures["headway"].mean_diff == pytest.approx(-mean_length, rel=1e-3)
+
+
+def test_highd_leaders_from_the_file_agree_with_the_recomputed_ones(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 1)
+    rows = _rows(HighDRecording(tmp_path, 1))
+    agree, either = leader_agreement(rows)
+    assert either > 5000 and agree == either
+    a, b = build_pairs(rows), build_pairs(rows, recompute=True)
+    assert np.array_equal(a.leader_id, b.leader_id)
+
+
+def test_a_lane_change_is_a_new_target(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 1)
+    pairs = build_pairs(_rows(HighDRecording(tmp_path, 1)))
+    lanes = {}
+    for vid, lane in zip(traffic.vid, traffic.lane, strict=True):
+        lanes.setdefault(int(vid), set()).add(int(lane))
+    changers = [v for v, s in lanes.items() if len(s) > 1]
+    assert len(changers) == 1
+    leaders = pairs.leader_id[(pairs.vid == changers[0]) & pairs.has_leader]
+    assert np.unique(leaders).size >= 2  # the leader in the old lane, then the new one
+
+
+def test_ngsim_feet_are_converted_and_space_headway_is_front_to_front(ngsim_traffic, tmp_path):
+    path = write_ngsim(ngsim_traffic, tmp_path / "ngsim.csv")
+    rec = NgsimRecording(path)
+    assert rec.dt == pytest.approx(0.1)
+    pairs = build_pairs(_rows(rec))
+    keep = ngsim_traffic.direction == 2
+    truth = _truth_gap_by_row(ngsim_traffic, pairs, keep)
+    has = np.isfinite(truth)
+    assert np.abs(pairs.gap[has] - truth[has]).max() < 0.01
+    check = CrossCheck(rec.headway_basis)
+    check.add(pairs)
+    for name in ("headway", "thw"):
+        assert check.figures[name].compared > 1000
+        assert check.figures[name].share_within == 1.0
+    assert check.figures["ttc"].compared == 0  # NGSIM has no TTC column
+
+
+def test_generic_csv_on_a_curve_centre_positions_lanes_from_lateral(ngsim_traffic, tmp_path):
+    """Positions are arc lengths along the (curved) lane, measured at the centre; the lanes
+    come from the lateral positions and the leaders are recomputed (no leader column)."""
+    path = write_csv(ngsim_traffic, tmp_path / "curve.csv", leader=False)
+    mapping = CsvMapping(position="s_mid", position_ref="centre", lane=None, lateral="y",
+                         lane_width=3.75)  # fmt: skip
+    rec = CsvRecording(path, mapping)
+    rows = _rows(rec)
+    assert rows.leader is None
+    pairs = build_pairs(rows)
+    truth = _truth_gap_by_row(ngsim_traffic, pairs, ngsim_traffic.direction == 2)
+    has = np.isfinite(truth)
+    assert np.array_equal(has, pairs.has_leader)
+    assert np.abs(pairs.gap[has] - truth[has]).max() < 1e-3
+
+
+def test_pack_plays_every_row_once_segment_by_segment():
+    start = np.zeros(20, dtype=bool)
+    start[[0, 7, 9, 15]] = True  # segments of 7, 2, 6, 5 rows
+    index, begins = pack(start, 2)
+    assert index.shape == (11, 2)  # LPT: 7 + 2 and 6 + 5
+    played = index[index >= 0]
+    assert np.array_equal(np.sort(played), np.arange(20))
+    for j in range(2):
+        col = index[:, j][index[:, j] >= 0]
+        assert np.all(np.diff(col)[~start[col[1:]]] == 1)  # a segment plays in order
+    assert begins.sum() == 4 and np.all(start[index[begins]])
+
+
+def test_windows_give_the_same_pairs_as_one(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 1)
+    one = ReplaySource(ReplayConfig("highd", str(tmp_path), slots=64))
+    many = ReplaySource(ReplayConfig("highd", str(tmp_path), slots=64, max_rows=5000))
+    assert len(many._plan) > 5 and len(one._plan) == 1
+    while not many.done:
+        many.advance()
+    a, b = one.stats["highD 01"], many.stats["highD 01"]
+    assert a.hours == pytest.approx(b.hours) and a.km == pytest.approx(b.km)
+    assert a.pair_steps == b.pair_steps
+
+
+def test_the_replay_runs_open_loop_through_the_pipeline(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 1)
+    source = ReplaySource(ReplayConfig("highd", str(tmp_path), slots=64))
+    stats = source.stats["highD 01"]
+    sim = SimConfig(dt=source.dt, methods=("radar", "federated"))
+    result = simulate(sim, source=source)
+    for summary in result.summaries.values():
+        assert summary.hours == pytest.approx(stats.hours)  # every row replayed once
+        assert summary.km == pytest.approx(stats.km, rel=1e-9)
+    with pytest.raises(Exception, match="cannot apply brake requests"):
+        closed = ReplaySource(ReplayConfig("highd", str(tmp_path), slots=64))
+        simulate(SimConfig(dt=closed.dt, drive="federated"), source=closed)
