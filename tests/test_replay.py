@@ -175,3 +175,27 @@ def test_the_replay_runs_open_loop_through_the_pipeline(traffic, tmp_path):
     with pytest.raises(Exception, match="cannot apply brake requests"):
         closed = ReplaySource(ReplayConfig("highd", str(tmp_path), slots=64))
         simulate(SimConfig(dt=closed.dt, drive="federated"), source=closed)
+
+
+def test_the_command_replays_each_format_and_writes_its_outputs(traffic, tmp_path, capsys):
+    from acc_fusion.cli.main import main
+
+    write_highd(traffic, tmp_path / "highd", 1)
+    out = tmp_path / "out"
+    args = ["replay", "--format", "highd", "--path", str(tmp_path / "highd"), "--slots", "64"]
+    assert main([*args, "--recording", "1", "--out", str(out), "--set", "methods=[federated]"]) == 0
+    text = capsys.readouterr().out
+    assert "Alert classes (judged from truth), highD 01" in text
+    assert "Exposure per recording" in text and "headway (gap)" in text
+    assert (out / "replay_highD_01_headways.png").stat().st_size > 10_000
+    assert (out / "replay_highD_01_crosscheck.csv").read_text().count("\n") == 4
+    ngsim = write_ngsim(simulate_traffic(duration=10.0, dt=0.1), tmp_path / "n.csv")
+    assert main(["replay", "--format", "ngsim", "--path", str(ngsim), "--slots", "64"]) == 0
+    assert "headway (spacing)" in capsys.readouterr().out
+    generic = write_csv(simulate_traffic(duration=10.0, dt=0.1), tmp_path / "g.csv")
+    mapping = tmp_path / "m.yaml"
+    mapping.write_text("position: s_mid\nposition_ref: centre\nlane: null\nlateral: y\n"
+                       "leader: lead\nlane_width: 3.75\n")  # fmt: skip
+    argv = ["replay", "--format", "csv", "--path", str(generic), "--mapping", str(mapping)]
+    assert main([*argv, "--slots", "64"]) == 0
+    assert "g    " in capsys.readouterr().out  # the recording's name in the exposure table

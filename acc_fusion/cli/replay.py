@@ -75,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
         "_exposure": study.exposure(),
         "_crosscheck": study.crosscheck(),
     }
-    print("\n\n".join(t.format() for t in tables.values()))
+    shown = [t.format() if t.rows else f"{t.title}: none" for t in tables.values()]
+    print("\n\n".join(shown))
     if out is not None:
         stem = "replay_" + re.sub(r"[^A-Za-z0-9]+", "_", study.name).strip("_")
         for suffix, t in tables.items():
