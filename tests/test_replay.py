@@ -11,7 +11,7 @@ from acc_fusion.truth.replay.crosscheck import CrossCheck
 from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
 from acc_fusion.truth.replay.highd import HighDRecording
 from acc_fusion.truth.replay.ngsim import NgsimRecording
-from acc_fusion.truth.replay.pairs import build_pairs, leader_agreement
+from acc_fusion.truth.replay.pairs import build_pairs
 from acc_fusion.truth.replay.source import ReplayConfig, ReplaySource, pack
 from acc_fusion.truth.replay.synthetic import (
     simulate_traffic,
@@ -87,9 +87,8 @@ def test_highd_cross_check_sees_a_front_to_front_headway(traffic, tmp_path):
 def test_highd_leaders_from_the_file_agree_with_the_recomputed_ones(traffic, tmp_path):
     write_highd(traffic, tmp_path, 1)
     rows = _rows(HighDRecording(tmp_path, 1))
-    agree, either = leader_agreement(rows)
-    assert either > 5000 and agree == either
     a, b = build_pairs(rows), build_pairs(rows, recompute=True)
+    assert a.either > 5000 and a.agree == a.either
     assert np.array_equal(a.leader_id, b.leader_id)
 
 

@@ -41,6 +41,10 @@ TRACK_COLUMNS = (
 )  # fmt: skip
 
 
+#: The columns of ``NN_tracksMeta.csv`` the replay reads.
+META_COLUMNS = ("id", "drivingDirection", "initialFrame", "numFrames")
+
+
 def _positive_or_nan(x: np.ndarray) -> np.ndarray:
     """``x`` with its zeros (highD's "none") as NaN."""
     return np.where(x != 0.0, x, np.nan)
@@ -62,12 +66,12 @@ class HighDRecording(Recording):
         self.frame_rate = meta["frameRate"]
         self.dt = 1.0 / self.frame_rate
         self.numbers = csvfile.resolve(self.path, TRACK_COLUMNS)
-        names = csvfile.resolve(tracks_meta, ("id", "drivingDirection"))
-        ids, dirs = [], []
+        names = csvfile.resolve(tracks_meta, META_COLUMNS)
+        meta = {k: [] for k in META_COLUMNS}
         for batch in csvfile.stream(tracks_meta, names):
-            ids.append(batch["id"])
-            dirs.append(batch["drivingDirection"])
-        ids, dirs = np.concatenate(ids).astype(np.int64), np.concatenate(dirs).astype(np.int64)
+            for k in META_COLUMNS:
+                meta[k].append(batch[k])
+        ids, dirs, first, count = (np.concatenate(meta[k]).astype(np.int64) for k in META_COLUMNS)
         bad = ~np.isin(dirs, (1, 2))
         if bad.any():
             line = int(np.flatnonzero(bad)[0]) + 2
@@ -78,6 +82,16 @@ class HighDRecording(Recording):
         order = np.argsort(ids)
         self._meta_id, self._meta_dir = ids[order], dirs[order]
         self._meta_path = tracks_meta
+        self._spans = np.maximum(first, 0), np.maximum(count, 0)
+
+    def frame_counts(self) -> np.ndarray:
+        """Rows per frame from ``tracksMeta`` (``initialFrame``, ``numFrames``), without a
+        pass over the tracks file."""
+        first, count = self._spans
+        diff = np.zeros(int((first + count).max(initial=0)) + 1, dtype=np.int64)
+        np.add.at(diff, first, 1)
+        np.add.at(diff, first + count, -1)
+        return np.cumsum(diff)[:-1]
 
     def _frames(self, batch: dict[str, np.ndarray]) -> np.ndarray:
         return batch["frame"].astype(np.int64)

@@ -39,6 +39,8 @@ class Pairs:
         lateral_offset: the leader's lateral position minus the ego's [m] (0 where unknown).
         ref: the data set's own figures (:data:`~acc_fusion.truth.replay.rows.REFERENCE_COLUMNS`).
         duplicates: rows dropped because their (frame, vehicle) came before.
+        agree, either: with a leader column, the rows whose file and recomputed leaders
+            agree, of the rows with a leader in either (0, 0 without one).
     """
 
     vid: np.ndarray
@@ -53,6 +55,8 @@ class Pairs:
     lateral_offset: np.ndarray
     ref: dict[str, np.ndarray] = field(default_factory=dict)
     duplicates: int = 0
+    agree: int = 0
+    either: int = 0
 
     def __len__(self) -> int:
         return int(self.vid.shape[0])
@@ -91,31 +95,28 @@ def file_leaders(rows: Rows, key: np.ndarray) -> np.ndarray:
 def recomputed_leaders(rows: Rows) -> np.ndarray:
     """Row index of each row's leader recomputed from positions and lanes: the vehicle with
     the next larger front position :math:`s` in the same frame, group and lane (-1: none)."""
-    order = np.lexsort((rows.s, rows.lane, rows.group, rows.frame))
-    f, g, ln = rows.frame[order], rows.group[order], rows.lane[order]
-    same = (f[1:] == f[:-1]) & (g[1:] == g[:-1]) & (ln[1:] == ln[:-1])
+    groups, g = np.unique(rows.group, return_inverse=True)
+    lanes, ln = np.unique(rows.lane, return_inverse=True)
+    place = (rows.frame * np.int64(groups.size) + g.ravel()) * np.int64(lanes.size) + ln.ravel()
+    order = np.lexsort((rows.s, place))
+    same = place[order][1:] == place[order][:-1]
     leader = np.full(len(rows), -1, dtype=np.int64)
     leader[order[:-1][same]] = order[1:][same]
     return leader
 
 
-def leader_agreement(rows: Rows) -> tuple[int, int]:
-    """How many rows have the same leader in the file's column and recomputed, of the rows
-    that have a leader in either (``rows`` must have a leader column)."""
-    rows, key, _ = by_frame(rows)
-    a, b = file_leaders(rows, key), recomputed_leaders(rows)
-    either = (a >= 0) | (b >= 0)
-    return int((either & (a == b)).sum()), int(either.sum())
-
-
 def build_pairs(rows: Rows, recompute: bool = False) -> Pairs:
     """The pairs of ``rows`` in track order; leaders from the file's column unless it has
-    none or ``recompute``."""
+    none or ``recompute`` (with a leader column, both are found and compared)."""
     rows, key, duplicates = by_frame(rows)
-    if rows.leader is None or recompute:
-        lead = recomputed_leaders(rows)
-    else:
-        lead = file_leaders(rows, key)
+    lead = recomputed_leaders(rows)
+    agree = either = 0
+    if rows.leader is not None:
+        named = file_leaders(rows, key)
+        some = (named >= 0) | (lead >= 0)
+        agree, either = int((some & (named == lead)).sum()), int(some.sum())
+        if not recompute:
+            lead = named
     track = np.lexsort((rows.frame, rows.vid))
     rows, lead = rows.take(track), lead[track]
     inverse = np.empty_like(track)
@@ -142,4 +143,6 @@ def build_pairs(rows: Rows, recompute: bool = False) -> Pairs:
         lateral_offset=lateral,
         ref=rows.ref,
         duplicates=duplicates,
+        agree=agree,
+        either=either,
     )

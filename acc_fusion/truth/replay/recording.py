@@ -65,10 +65,9 @@ class Recording(ABC):
             self._windows = (max_rows, self._cut(max_rows))
         return self._windows[1]
 
-    def _cut(self, max_rows: int) -> list[tuple[int, int, int]]:
-        """The windows of :meth:`windows`, from one pass over the frame column."""
-        if max_rows < 1:
-            raise ConfigError(f"max_rows must be >= 1, got {max_rows}")
+    def frame_counts(self) -> np.ndarray:
+        """Rows per frame index, from one pass over the frame column (a format whose meta
+        data tells it overrides this)."""
         counts = np.zeros(0, dtype=np.int64)
         for batch in self._stream(self.frame_columns):
             frame = self._frames(batch)
@@ -77,16 +76,24 @@ class Recording(ABC):
             c = np.bincount(frame, minlength=counts.size)
             c[: counts.size] += counts
             counts = c
+        return counts
+
+    def _cut(self, max_rows: int) -> list[tuple[int, int, int]]:
+        """The windows of :meth:`windows`; the first starts at frame 0 and the last never
+        ends, so that no row is left out whatever the counts say."""
+        counts = self.frame_counts()
         cum = np.cumsum(counts)
         bounds, start, base = [], 0, 0
         while start < counts.size:
             end = int(np.searchsorted(cum, base + max_rows, side="right"))
-            end = max(end, start + 1)
-            bounds.append((start, min(end, counts.size)))
-            base = int(cum[min(end, counts.size) - 1])
+            end = min(max(end, start + 1), counts.size)
+            bounds.append((start, end, int(cum[end - 1]) - base))
+            base = int(cum[end - 1])
             start = end
-        sized = [(a, b, int(cum[b - 1] - (cum[a - 1] if a else 0))) for a, b in bounds]
-        return [w for w in sized if w[2] > 0]
+        sized = [w for w in bounds if w[2] > 0] or [(0, 1, 0)]
+        starts = [0] + [w[0] for w in sized[1:]]
+        ends = starts[1:] + [2**62]
+        return [(a, b, w[2]) for a, b, w in zip(starts, ends, sized, strict=True)]
 
     def rows(self, f0: int, f1: int) -> Rows | None:
         """The rows of frames ``[f0, f1)`` (``None`` if there are none)."""

@@ -29,6 +29,8 @@ acceleration and id, and the lateral offset.
 from __future__ import annotations
 
 import heapq
+import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,7 +43,7 @@ from acc_fusion.truth.replay.crosscheck import CrossCheck
 from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
 from acc_fusion.truth.replay.highd import highd_recordings
 from acc_fusion.truth.replay.ngsim import ngsim_recordings
-from acc_fusion.truth.replay.pairs import Pairs, build_pairs, leader_agreement
+from acc_fusion.truth.replay.pairs import Pairs, build_pairs
 from acc_fusion.truth.replay.recording import MAX_ROWS, Recording
 
 #: The formats a recording can have.
@@ -172,25 +174,34 @@ class ReplaySource(SlotSource):
         self.config = config
         recordings = config.open()
         self.dt = recordings[0].dt
-        self.n_pairs = config.slots
         self.stats = {
             r.label: RecordingStats(r.label, "file", crosscheck=CrossCheck(r.headway_basis))
             for r in recordings
         }
         self._plan = [(r, f0, f1) for r in recordings for f0, f1, _ in r.windows(config.max_rows)]
+        sizes = [m for r in recordings for *_, m in r.windows(config.max_rows)]
         #: An upper bound of the steps: every step plays at least one row.
-        self.n_steps = sum(m for r in recordings for *_, m in r.windows(config.max_rows))
+        self.n_steps = sum(sizes)
         self._t = 0.0
         self._k = 0
         self._done = False
-        self._collided = np.zeros(self.n_pairs, dtype=bool)
-        self._collision_speed = np.full(self.n_pairs, np.nan)
         self._bar = tqdm(
             total=len(self._plan), unit="window", desc="replay", disable=None if progress else True
         )
+        self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="replay-reader")
         self._next = 0
-        if not self._load():
+        self._ahead = self._read_ahead()
+        first = self._ahead.result() if self._ahead is not None else None
+        if first is None:
+            self.close()
             raise ConfigError(f"{config.path}: the recording holds no rows")
+        # As many slots as the longest segment leaves busy (at most ``config.slots``).
+        starts = np.flatnonzero(first[1].start)
+        longest = int(np.diff(np.append(starts, len(first[1]))).max())
+        self.n_pairs = min(config.slots, max(1, math.ceil(max(sizes) / longest)))
+        self._collided = np.zeros(self.n_pairs, dtype=bool)
+        self._collision_speed = np.full(self.n_pairs, np.nan)
+        self._load()
 
     @property
     def t(self) -> float:
@@ -202,25 +213,40 @@ class ReplaySource(SlotSource):
 
     def close(self) -> None:
         self._bar.close()
+        self._reader.shutdown(wait=True, cancel_futures=True)
+
+    def _read_ahead(self):
+        """Start reading and pairing the next window of the plan in the reader thread
+        (``None`` after the last)."""
+        if self._next >= len(self._plan):
+            return None
+        rec, f0, f1 = self._plan[self._next]
+        self._next += 1
+        return self._reader.submit(self._prepare, rec, f0, f1)
+
+    def _prepare(self, rec: Recording, f0: int, f1: int) -> tuple[Recording, Pairs] | None:
+        """Read and pair the window ``[f0, f1)`` of ``rec`` (in the reader thread)."""
+        rows = rec.rows(f0, f1)
+        if rows is None:
+            return None
+        recompute = self.config.recompute_leaders or rows.leader is None
+        return rec, build_pairs(rows, recompute=recompute)
 
     def _load(self) -> bool:
-        """Read, pair and pack the next window with rows; ``False`` after the last one."""
-        while self._next < len(self._plan):
-            rec, f0, f1 = self._plan[self._next]
-            self._next += 1
+        """Take the next window with rows (read while the last one played) and pack it;
+        ``False`` after the last one."""
+        while self._ahead is not None:
+            ready = self._ahead.result()
+            self._ahead = self._read_ahead()
             self._bar.update(1)
-            rows = rec.rows(f0, f1)
-            if rows is None:
+            if ready is None:
                 continue
+            rec, pairs = ready
             stats = self.stats[rec.label]
-            recompute = self.config.recompute_leaders or rows.leader is None
-            stats.leaders = "recomputed" if recompute else "file"
-            pairs = build_pairs(rows, recompute=recompute)
+            stats.leaders = (
+                "file" if pairs.either and not self.config.recompute_leaders else ("recomputed")
+            )
             self._account(stats, pairs, rec.dt)
-            if rows.leader is not None:
-                agree, either = leader_agreement(rows)
-                stats.agree += agree
-                stats.either += either
             self._pairs = _with_idle_row(pairs)
             self._index, self._begins = pack(pairs.start, self.n_pairs)
             self._index[self._index < 0] = len(pairs)
@@ -239,6 +265,8 @@ class ReplaySource(SlotSource):
         stats.pairs += int(np.unique(key).size)
         stats.pair_steps += int(has.sum())
         stats.duplicates += p.duplicates
+        stats.agree += p.agree
+        stats.either += p.either
         stats.crosscheck.add(p)
 
     def _set_frame(self) -> None:
