@@ -66,6 +66,18 @@ class Pairs:
         """Rows with a leader."""
         return self.leader_id >= 0
 
+    #: The per-row arrays, in the order of the constructor.
+    ARRAYS = (
+        "vid", "start", "ego_speed", "ego_accel", "leader_id", "gap", "lead_speed",
+        "lead_accel", "lead_length", "lateral_offset",
+    )  # fmt: skip
+
+    @classmethod
+    def concat(cls, parts: list[Pairs]) -> Pairs:
+        """The rows of ``parts`` one after the other (each part's first row starts a
+        segment); the data set's figures and the counts are left out."""
+        return cls(*(np.concatenate([getattr(p, a) for p in parts]) for a in cls.ARRAYS))
+
 
 def by_frame(rows: Rows) -> tuple[Rows, np.ndarray, int]:
     """``rows`` sorted by frame then vehicle, duplicates (same frame and vehicle) dropped;

@@ -137,21 +137,46 @@ class RecordingStats:
     crosscheck: CrossCheck = field(default_factory=CrossCheck)
 
 
-def pack(start: np.ndarray, slots: int) -> tuple[np.ndarray, np.ndarray]:
-    """Pack the segments of a track-ordered window (``start``: a segment begins at that row)
-    into ``slots``: the row index each slot plays at each step, ``(T, slots)`` with -1 where
-    idle, and where a segment begins, ``(T, slots)`` bool (LPT: longest segment first, into
-    the slot that frees first)."""
-    first = np.flatnonzero(start)
-    length = np.diff(np.append(first, start.size))
+#: The cost of one pipeline step in slot-steps (its fixed part: about 0.6 ms of Python and
+#: kernel launches against about 1.2 µs per slot, measured with ``scripts/bench_replay.py``).
+STEP_COST_SLOTS = 500
+
+
+def segment_lengths(start: np.ndarray) -> np.ndarray:
+    """The lengths of the segments of a track-ordered window (``start``: a segment begins)."""
+    return np.diff(np.append(np.flatnonzero(start), start.size))
+
+
+def schedule(length: np.ndarray, slots: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """LPT: each segment, longest first, into the slot that frees first.  Returns each
+    segment's first step and slot, and the steps of the whole (the makespan)."""
     heap = [(0, j) for j in range(slots)]
-    at = np.empty(first.size, dtype=np.int64)
-    slot = np.empty(first.size, dtype=np.int64)
+    at = np.empty(length.size, dtype=np.int64)
+    slot = np.empty(length.size, dtype=np.int64)
     for i in np.argsort(-length, kind="stable"):
         load, j = heapq.heappop(heap)
         at[i], slot[i] = load, j
         heapq.heappush(heap, (load + int(length[i]), j))
-    steps = int((at + length).max()) if first.size else 0
+    return at, slot, int((at + length).max()) if length.size else 0
+
+
+def best_slots(length: np.ndarray, rows: int, most: int) -> int:
+    """The slot count (at most ``most``) that plays ``rows`` rows of segments like
+    ``length`` at the least cost, ``steps * (STEP_COST_SLOTS + slots)``: enough slots that
+    the longest segment sets the steps, not so many that idle slots cost more."""
+    base = rows / max(int(length.max()), 1)
+    candidates = {min(most, max(1, math.ceil(base * f))) for f in (1.0, 1.25, 1.5, 2.0, 3.0)}
+    cost = {n: schedule(length, n)[2] * (STEP_COST_SLOTS + n) for n in sorted(candidates)}
+    return min(cost, key=cost.get)
+
+
+def pack(start: np.ndarray, slots: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pack the segments of a track-ordered window (``start``: a segment begins at that row)
+    into ``slots`` (:func:`schedule`): the row index each slot plays at each step,
+    ``(T, slots)`` with -1 where idle, and where a segment begins, ``(T, slots)`` bool."""
+    first = np.flatnonzero(start)
+    length = segment_lengths(start)
+    at, slot, steps = schedule(length, slots)
     index = np.full((steps, slots), -1, dtype=np.int64)
     begins = np.zeros((steps, slots), dtype=bool)
     within = np.arange(start.size) - np.repeat(first, length)
@@ -178,27 +203,26 @@ class ReplaySource(SlotSource):
             r.label: RecordingStats(r.label, "file", crosscheck=CrossCheck(r.headway_basis))
             for r in recordings
         }
-        self._plan = [(r, f0, f1) for r in recordings for f0, f1, _ in r.windows(config.max_rows)]
-        sizes = [m for r in recordings for *_, m in r.windows(config.max_rows)]
+        self._plan = batches(recordings, config.max_rows)
+        sizes = [sum(m for *_, m in batch) for batch in self._plan]
         #: An upper bound of the steps: every step plays at least one row.
         self.n_steps = sum(sizes)
         self._t = 0.0
         self._k = 0
         self._done = False
         self._bar = tqdm(
-            total=len(self._plan), unit="window", desc="replay", disable=None if progress else True
+            total=len(self._plan), unit="batch", desc="replay", disable=None if progress else True
         )
         self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="replay-reader")
         self._next = 0
         self._ahead = self._read_ahead()
-        first = self._ahead.result() if self._ahead is not None else None
-        if first is None:
+        first = self._ahead.result() if self._ahead is not None else []
+        if not first:
             self.close()
             raise ConfigError(f"{config.path}: the recording holds no rows")
-        # As many slots as the longest segment leaves busy (at most ``config.slots``).
-        starts = np.flatnonzero(first[1].start)
-        longest = int(np.diff(np.append(starts, len(first[1]))).max())
-        self.n_pairs = min(config.slots, max(1, math.ceil(max(sizes) / longest)))
+        # The batch width for the largest batch, judged on the first one's segments.
+        lengths = segment_lengths(first[0][1].start)
+        self.n_pairs = best_slots(lengths, max(sizes), config.slots)
         self._collided = np.zeros(self.n_pairs, dtype=bool)
         self._collision_speed = np.full(self.n_pairs, np.nan)
         self._load()
@@ -216,37 +240,40 @@ class ReplaySource(SlotSource):
         self._reader.shutdown(wait=True, cancel_futures=True)
 
     def _read_ahead(self):
-        """Start reading and pairing the next window of the plan in the reader thread
+        """Start reading and pairing the next batch of windows in the reader thread
         (``None`` after the last)."""
         if self._next >= len(self._plan):
             return None
-        rec, f0, f1 = self._plan[self._next]
+        batch = self._plan[self._next]
         self._next += 1
-        return self._reader.submit(self._prepare, rec, f0, f1)
+        return self._reader.submit(self._prepare, batch)
 
-    def _prepare(self, rec: Recording, f0: int, f1: int) -> tuple[Recording, Pairs] | None:
-        """Read and pair the window ``[f0, f1)`` of ``rec`` (in the reader thread)."""
-        rows = rec.rows(f0, f1)
-        if rows is None:
-            return None
-        recompute = self.config.recompute_leaders or rows.leader is None
-        return rec, build_pairs(rows, recompute=recompute)
+    def _prepare(self, batch: list[tuple[Recording, int, int, int]]) -> list[tuple]:
+        """Read and pair the windows of ``batch`` (in the reader thread): ``(recording,
+        pairs)`` for each window that has rows."""
+        out = []
+        for rec, f0, f1, _ in batch:
+            rows = rec.rows(f0, f1)
+            if rows is not None:
+                recompute = self.config.recompute_leaders or rows.leader is None
+                out.append((rec, build_pairs(rows, recompute=recompute)))
+        return out
 
     def _load(self) -> bool:
-        """Take the next window with rows (read while the last one played) and pack it;
-        ``False`` after the last one."""
+        """Take the next batch with rows (read while the last one played), count it and
+        pack its windows together; ``False`` after the last one."""
         while self._ahead is not None:
             ready = self._ahead.result()
             self._ahead = self._read_ahead()
             self._bar.update(1)
-            if ready is None:
+            if not ready:
                 continue
-            rec, pairs = ready
-            stats = self.stats[rec.label]
-            stats.leaders = (
-                "file" if pairs.either and not self.config.recompute_leaders else ("recomputed")
-            )
-            self._account(stats, pairs, rec.dt)
+            for rec, pairs in ready:
+                stats = self.stats[rec.label]
+                named = pairs.either and not self.config.recompute_leaders
+                stats.leaders = "file" if named else "recomputed"
+                self._account(stats, pairs, rec.dt)
+            pairs = Pairs.concat([p for _, p in ready])
             self._pairs = _with_idle_row(pairs)
             self._index, self._begins = pack(pairs.start, self.n_pairs)
             self._index[self._index < 0] = len(pairs)
@@ -304,19 +331,22 @@ class ReplaySource(SlotSource):
 
 def _with_idle_row(p: Pairs) -> Pairs:
     """``p`` with one more row: an idle slot's (no leader, standing still)."""
+    idle = {"vid": -1, "start": True, "ego_speed": 0.0, "ego_accel": 0.0, "leader_id": -1,
+            "lateral_offset": 0.0}  # fmt: skip
+    return Pairs.concat([p, Pairs(*(np.array([idle.get(a, np.nan)]) for a in Pairs.ARRAYS))])
 
-    def more(x: np.ndarray, value) -> np.ndarray:
-        return np.append(x, np.array([value], dtype=x.dtype))
 
-    return Pairs(
-        vid=more(p.vid, -1),
-        start=more(p.start, True),
-        ego_speed=more(p.ego_speed, 0.0),
-        ego_accel=more(p.ego_accel, 0.0),
-        leader_id=more(p.leader_id, -1),
-        gap=more(p.gap, np.nan),
-        lead_speed=more(p.lead_speed, np.nan),
-        lead_accel=more(p.lead_accel, np.nan),
-        lead_length=more(p.lead_length, np.nan),
-        lateral_offset=more(p.lateral_offset, 0.0),
-    )
+def batches(recordings: list[Recording], max_rows: int) -> list[list[tuple]]:
+    """The windows of ``recordings`` (``(recording, f0, f1, rows)``) in batches of at most
+    ``max_rows`` rows (a window of more is a batch of its own): several short recordings
+    play together, in one wide batch."""
+    out: list[list[tuple]] = []
+    size = max_rows + 1
+    for rec in recordings:
+        for f0, f1, rows in rec.windows(max_rows):
+            if size + rows > max_rows:
+                out.append([])
+                size = 0
+            out[-1].append((rec, f0, f1, rows))
+            size += rows
+    return out
