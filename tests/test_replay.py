@@ -198,3 +198,20 @@ def test_the_command_replays_each_format_and_writes_its_outputs(traffic, tmp_pat
     argv = ["replay", "--format", "csv", "--path", str(generic), "--mapping", str(mapping)]
     assert main([*argv, "--slots", "64"]) == 0
     assert "g    " in capsys.readouterr().out  # the recording's name in the exposure table
+
+
+def test_ngsim_locations_of_a_combined_export_are_recordings_of_their_own(ngsim_traffic, tmp_path):
+    path = write_ngsim(ngsim_traffic, tmp_path / "one.csv")
+    header, *lines = path.read_text().splitlines()
+    located = [header + ",Location"] + [
+        f"{line},{'us-101' if int(line.split(',')[0]) % 2 else 'i-80'}" for line in lines
+    ]
+    combined = tmp_path / "combined.csv"
+    combined.write_text("\n".join(located) + "\n")
+    config = ReplayConfig("ngsim", str(combined), recordings=("us-101", "i-80"), slots=64)
+    source = ReplaySource(config)
+    odd = sum(int(line.split(",")[0]) % 2 for line in lines)
+    stats = source.stats
+    assert list(stats) == ["NGSIM us-101", "NGSIM i-80"]
+    assert stats["NGSIM us-101"].hours == pytest.approx(odd * 0.1 / 3600)
+    assert stats["NGSIM i-80"].hours == pytest.approx((len(lines) - odd) * 0.1 / 3600)

@@ -273,10 +273,10 @@ class ReplaySource(SlotSource):
                 named = pairs.either and not self.config.recompute_leaders
                 stats.leaders = "file" if named else "recomputed"
                 self._account(stats, pairs, rec.dt)
-            pairs = Pairs.concat([p for _, p in ready])
-            self._pairs = _with_idle_row(pairs)
-            self._index, self._begins = pack(pairs.start, self.n_pairs)
-            self._index[self._index < 0] = len(pairs)
+            self._pairs = Pairs.concat([p for _, p in ready] + [_idle_row()])
+            idle = len(self._pairs) - 1
+            self._index, self._begins = pack(self._pairs.start[:idle], self.n_pairs)
+            self._index[self._index < 0] = idle
             self._k = 0
             self._set_frame()
             return True
@@ -329,11 +329,11 @@ class ReplaySource(SlotSource):
         return self._frame
 
 
-def _with_idle_row(p: Pairs) -> Pairs:
-    """``p`` with one more row: an idle slot's (no leader, standing still)."""
+def _idle_row() -> Pairs:
+    """The row an idle slot plays: no leader, standing still."""
     idle = {"vid": -1, "start": True, "ego_speed": 0.0, "ego_accel": 0.0, "leader_id": -1,
             "lateral_offset": 0.0}  # fmt: skip
-    return Pairs.concat([p, Pairs(*(np.array([idle.get(a, np.nan)]) for a in Pairs.ARRAYS))])
+    return Pairs(*(np.array([idle.get(a, np.nan)]) for a in Pairs.ARRAYS))
 
 
 def batches(recordings: list[Recording], max_rows: int) -> list[list[tuple]]:
