@@ -215,3 +215,14 @@ def test_ngsim_locations_of_a_combined_export_are_recordings_of_their_own(ngsim_
     assert list(stats) == ["NGSIM us-101", "NGSIM i-80"]
     assert stats["NGSIM us-101"].hours == pytest.approx(odd * 0.1 / 3600)
     assert stats["NGSIM i-80"].hours == pytest.approx((len(lines) - odd) * 0.1 / 3600)
+
+
+def test_rows_in_any_order_with_repeats_give_the_same_pairs(traffic, tmp_path):
+    write_highd(traffic, tmp_path, 1)
+    rows = _rows(HighDRecording(tmp_path, 1))
+    shuffled = np.random.default_rng(0).permutation(len(rows))
+    repeated = rows.take(np.concatenate([shuffled, shuffled[:100]]))
+    a, b = build_pairs(rows), build_pairs(repeated)
+    assert b.duplicates == 100 and a.duplicates == 0
+    for name in ("vid", "start", "leader_id", "gap", "lead_speed", "lateral_offset"):
+        assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name

@@ -79,29 +79,50 @@ class Pairs:
         return cls(*(np.concatenate([getattr(p, a) for p in parts]) for a in cls.ARRAYS))
 
 
-def by_frame(rows: Rows) -> tuple[Rows, np.ndarray, int]:
-    """``rows`` sorted by frame then vehicle, duplicates (same frame and vehicle) dropped;
-    also the sort keys and the number of duplicates."""
-    vehicles, dense = np.unique(rows.vid, return_inverse=True)
-    key = rows.frame * np.int64(vehicles.size) + dense
-    order = np.argsort(key, kind="stable")
-    key = key[order]
-    dup = np.zeros(key.size, dtype=bool)
-    dup[1:] = key[1:] == key[:-1]
-    return rows.take(order[~dup]), key[~dup], int(dup.sum())
+def in_track_order(rows: Rows) -> tuple[Rows, np.ndarray, int]:
+    """``rows`` sorted by vehicle then frame (not moved if they already are, as highD's and
+    NGSIM's files are), repeats of a (vehicle, frame) dropped; also the ascending keys
+    ``vehicle index * frames + frame`` of the rows and the number of repeats."""
+    vid, frame = rows.vid, rows.frame
+    ordered = bool(
+        np.all((vid[1:] > vid[:-1]) | ((vid[1:] == vid[:-1]) & (frame[1:] > frame[:-1])))
+    )
+    if not ordered:
+        order = np.lexsort((frame, vid))
+        vid, frame = vid[order], frame[order]
+        keep = np.ones(order.size, dtype=bool)
+        keep[1:] = (vid[1:] != vid[:-1]) | (frame[1:] != frame[:-1])
+        rows = rows.take(order[keep])
+        duplicates = int((~keep).sum())
+    else:
+        duplicates = 0
+    return rows, _track_keys(rows), duplicates
+
+
+def _track_keys(rows: Rows) -> np.ndarray:
+    """``vehicle index * frames + frame - first frame`` of rows in track order (ascending)."""
+    vehicles, first, span = _vehicles(rows)
+    return np.searchsorted(vehicles, rows.vid) * span + (rows.frame - first)
+
+
+def _vehicles(rows: Rows) -> tuple[np.ndarray, np.int64, np.int64]:
+    """The vehicle ids of rows in track order (ascending), the first frame and the frames
+    spanned."""
+    new = np.ones(len(rows), dtype=bool)
+    new[1:] = rows.vid[1:] != rows.vid[:-1]
+    first = rows.frame.min()
+    return rows.vid[new], first, np.int64(rows.frame.max() - first + 1)
 
 
 def file_leaders(rows: Rows, key: np.ndarray) -> np.ndarray:
     """Row index of each row's leader from the file's leader column (-1: none, or not held
-    at that frame); ``rows`` and ``key`` as :func:`by_frame` returns them."""
-    vehicles = np.unique(rows.vid)
+    at that frame); ``rows`` and ``key`` as :func:`in_track_order` returns them."""
+    vehicles, first, span = _vehicles(rows)
     lead = rows.leader
     j = np.minimum(np.searchsorted(vehicles, lead), vehicles.size - 1)
     known = (lead >= 0) & (vehicles[j] == lead)
-    want = rows.frame * np.int64(vehicles.size) + j
-    pos = np.minimum(np.searchsorted(key, want), key.size - 1)
-    found = known & (key[pos] == want)
-    return np.where(found, pos, -1)
+    pos = np.minimum(np.searchsorted(key, j * span + (rows.frame - first)), key.size - 1)
+    return np.where(known & (key[pos] == j * span + (rows.frame - first)), pos, -1)
 
 
 def recomputed_leaders(rows: Rows) -> np.ndarray:
@@ -120,7 +141,7 @@ def recomputed_leaders(rows: Rows) -> np.ndarray:
 def build_pairs(rows: Rows, recompute: bool = False) -> Pairs:
     """The pairs of ``rows`` in track order; leaders from the file's column unless it has
     none or ``recompute`` (with a leader column, both are found and compared)."""
-    rows, key, duplicates = by_frame(rows)
+    rows, key, duplicates = in_track_order(rows)
     lead = recomputed_leaders(rows)
     agree = either = 0
     if rows.leader is not None:
@@ -129,12 +150,8 @@ def build_pairs(rows: Rows, recompute: bool = False) -> Pairs:
         agree, either = int((some & (named == lead)).sum()), int(some.sum())
         if not recompute:
             lead = named
-    track = np.lexsort((rows.frame, rows.vid))
-    rows, lead = rows.take(track), lead[track]
-    inverse = np.empty_like(track)
-    inverse[track] = np.arange(track.size)
     has = lead >= 0
-    lr = np.where(has, inverse[np.where(has, lead, 0)], 0)
+    lr = np.where(has, lead, 0)
     start = np.ones(len(rows), dtype=bool)
     start[1:] = (rows.vid[1:] != rows.vid[:-1]) | (rows.frame[1:] != rows.frame[:-1] + 1)
 
