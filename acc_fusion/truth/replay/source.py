@@ -10,10 +10,14 @@ Open loop only
 Batching: slots play tracks back to back
     The pairs of a recording are independent in open loop, so the source does not replay the
     recording's clock, where only the 50 to 100 vehicles in view at a time would be
-    batched.  It cuts each window of a recording (:mod:`~acc_fusion.truth.replay.recording`)
-    into *segments* (one vehicle's consecutive frames) and packs them into ``slots``, longest
-    first, each into the slot that frees first (the LPT rule of Graham, *Bounds on
-    multiprocessing timing anomalies*, SIAM J. Appl. Math. 17, 1969).  A slot plays its
+    batched.  It groups the windows of the recordings
+    (:mod:`~acc_fusion.truth.replay.recording`) into *batches* of at most ``max_rows`` rows
+    (:func:`batches`: short recordings play together), cuts each batch into *segments* (one
+    vehicle's consecutive frames) and packs them into the slots, longest first, each into the
+    slot that frees first (the LPT rule of Graham, *Bounds on multiprocessing timing
+    anomalies*, SIAM J. Appl. Math. 17, 1969).  The number of slots N is chosen once, from
+    the first batch (:func:`best_slots`, at most ``slots``).  While a batch plays, a thread
+    reads and pairs the next (pyarrow parses without holding the GIL).  A slot plays its
     segments one after the other; each new segment is a new vehicle in that slot
     (:attr:`reassigned`, so every stage starts afresh), every step advances all slots by one
     frame of the data (``dt`` = the recording's frame period).  The frame's ``t`` is the
