@@ -26,6 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from acc_fusion.cli.common import positive_float, positive_int
 from acc_fusion.sim.closed_loop import DEFAULT_METHODS, SimConfig, simulate
 from acc_fusion.truth.replay.recording import MAX_ROWS
 from acc_fusion.truth.replay.source import ReplayConfig, ReplaySource
@@ -47,16 +48,18 @@ def replay(
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="2 short recordings (a few s)")
-    parser.add_argument("--recordings", type=int, default=4, help="recordings (default 4)")
+    parser.add_argument("--recordings", type=positive_int, default=4, help="default 4")
     parser.add_argument(
-        "--duration", type=float, default=200.0, help="seconds per recording (default 200)"
+        "--duration", type=positive_float, default=200.0, help="seconds each (default 200)"
     )
-    parser.add_argument("--slots", type=int, default=4096, help="pairs at once (default 4096)")
+    parser.add_argument(
+        "--slots", type=positive_int, default=4096, help="pairs at once, at most (default 4096)"
+    )
     parser.add_argument(
         "--methods", choices=("federated", "all"), default="federated", help="default federated"
     )
     parser.add_argument(
-        "--max-rows", type=int, default=MAX_ROWS, help=f"rows of a batch (default {MAX_ROWS})"
+        "--max-rows", type=positive_int, default=MAX_ROWS, help=f"rows a batch (default {MAX_ROWS})"
     )
     args = parser.parse_args()
     methods = DEFAULT_METHODS if args.methods == "all" else ("federated",)

@@ -3,9 +3,14 @@ from a simulated ground truth), the pairs, the cross-check and the replay source
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from acc_fusion.cli.main import main
 from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.truth.replay.crosscheck import CrossCheck
 from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
@@ -177,8 +182,6 @@ def test_the_replay_runs_open_loop_through_the_pipeline(traffic, tmp_path):
 
 
 def test_the_command_replays_each_format_and_writes_its_outputs(traffic, tmp_path, capsys):
-    from acc_fusion.cli.main import main
-
     write_highd(traffic, tmp_path / "highd", 1)
     out = tmp_path / "out"
     args = ["replay", "--format", "highd", "--path", str(tmp_path / "highd"), "--slots", "64"]
@@ -226,3 +229,17 @@ def test_rows_in_any_order_with_repeats_give_the_same_pairs(traffic, tmp_path):
     assert b.duplicates == 100 and a.duplicates == 0
     for name in ("vid", "start", "leader_id", "gap", "lead_speed", "lateral_offset"):
         assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
+
+
+def test_the_benchmark_prints_its_figure_last():
+    script = Path(__file__).resolve().parents[1] / "scripts" / "bench_replay.py"
+    proc = subprocess.run(
+        [sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    last = proc.stdout.strip().splitlines()[-1]
+    assert last.startswith("pair_steps_per_s=") and float(last.split("=")[1]) > 0
+    bad = subprocess.run(
+        [sys.executable, str(script), "--slots", "0"], capture_output=True, text=True
+    )
+    assert bad.returncode == 2 and "must be >= 1" in bad.stderr
