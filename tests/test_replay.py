@@ -243,3 +243,45 @@ def test_the_benchmark_prints_its_figure_last():
         [sys.executable, str(script), "--slots", "0"], capture_output=True, text=True
     )
     assert bad.returncode == 2 and "must be >= 1" in bad.stderr
+
+
+def _braking_csv(path: Path, brake: bool = True) -> Path:
+    """Two vehicles at 25 m/s, 30.5 m apart; the lead brakes at 6 m/s² to a stop from 5 s,
+    the (recorded) follower brakes at 8 m/s² only from 6.5 s: a late reaction, no crash
+    (without ``brake`` both cruise)."""
+    t = np.round(np.arange(0.0, 15.0, 0.1), 10)
+
+    def motion(s0, t_brake, decel):
+        tb = np.clip(t - t_brake, 0.0, 25.0 / decel)
+        v = np.where(t < t_brake, 25.0, 25.0 - decel * tb)
+        a = np.where((t >= t_brake) & (v > 0), -decel, 0.0)
+        return s0 + 25.0 * np.minimum(t, t_brake) + 25.0 * tb - 0.5 * decel * tb**2, v, a
+
+    lines = ["k,id,s,lane,v,a,length,lead"]
+    late = 5.0 if brake else 99.0
+    for vid, (s0, t_brake, decel), lead in (
+        (1, (60.0, late, 6.0), 0),
+        (2, (25.0, late + 1.5, 8.0), 1),
+    ):
+        s, v, a = motion(s0, t_brake, decel)
+        lines += [f"{k},{vid},{s[k]:.4f},1,{v[k]:.4f},{a[k]:.4f},4.5,{lead}" for k in range(t.size)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("brake", [True, False])
+def test_a_recorded_late_reaction_to_a_braking_lead_is_warned(tmp_path, brake):
+    """The replayed truth has the right signs: the oracle and the federated warning fire on a
+    lead braking hard in front of a follower that reacts late, and stay silent when both
+    cruise."""
+    path = _braking_csv(tmp_path / "brake.csv", brake)
+    mapping = tmp_path / "brake.toml"
+    mapping.write_text('frame = "k"\nleader = "lead"\n')
+    source = ReplaySource(ReplayConfig("csv", str(path), mapping=str(mapping), slots=4))
+    result = simulate(SimConfig(dt=source.dt, methods=("federated",), seed=1), source=source)
+    s = result.summaries["federated"]
+    if brake:
+        assert s.threats == s.detected == 1 and s.false_alarms == 0
+        assert s.relevant == s.relevant_detected == 1 and s.crash_relevant == 1
+    else:
+        assert s.threats == s.warnings == s.relevant == 0

@@ -38,8 +38,8 @@ class CsvMapping:
 
     Attributes:
         id: vehicle id (a whole number).
-        time: time [s]; or ``frame``: frame index (one of the two, ``time`` by default).
-        frame: frame index (time = frame / ``frame_rate``).
+        time: time [s] (``t`` when neither ``time`` nor ``frame`` is given).
+        frame: frame index (time = frame / ``frame_rate``), instead of ``time``.
         frame_rate: rows per second per vehicle [Hz] (default 10).
         position: position along the driving direction (arc length along the lane).
         position_ref: where on the vehicle ``position`` is: front, centre or rear.
@@ -55,7 +55,7 @@ class CsvMapping:
     """
 
     id: str = "id"
-    time: str | None = "t"
+    time: str | None = None
     frame: str | None = None
     frame_rate: float = 10.0
     position: str = "s"
@@ -71,8 +71,10 @@ class CsvMapping:
     units: str = "m"
 
     def __post_init__(self) -> None:
-        if (self.time is None) == (self.frame is None):
-            raise ConfigError("the CSV mapping needs exactly one of time and frame")
+        if self.time is not None and self.frame is not None:
+            raise ConfigError("the CSV mapping takes a time or a frame column, not both")
+        if self.frame is None and self.time is None:
+            object.__setattr__(self, "time", "t")
         if self.lane is None and self.lateral is None:
             raise ConfigError("the CSV mapping needs a lane or a lateral column")
         check_range("frame_rate", self.frame_rate, 0.0, 1e4, lo_open=True)
