@@ -65,9 +65,17 @@ def test_a_row_with_too_few_fields(tmp_path, traffic, capsys):
 
 def test_a_missing_column(tmp_path, traffic, capsys):
     folder, tracks = _highd(tmp_path, traffic)
-    _edit_line(tracks, 1, lambda f: ["LANE" if x == "laneId" else x for x in f])
+    _edit_line(tracks, 1, lambda f: ["LEAD" if x == "precedingId" else x for x in f])
     err = _replay_error(capsys, "--format", "highd", "--path", str(folder))
-    assert f"{tracks}, line 1: no column 'laneId'" in err
+    assert f"{tracks}, line 1: no column 'precedingId'" in err
+
+
+def test_bad_lane_markings(tmp_path, traffic, capsys):
+    folder, _ = _highd(tmp_path, traffic)
+    meta = folder / "01_recordingMeta.csv"
+    meta.write_text(meta.read_text().replace("9.5;13.25;17", "9.5;wide;17"))
+    err = _replay_error(capsys, "--format", "highd", "--path", str(folder))
+    assert f"{meta}, line 2, column 'lowerLaneMarkings':" in err
 
 
 def test_a_missing_highd_file(tmp_path, traffic, capsys):

@@ -16,7 +16,10 @@ along x and ``height`` its width.  So the front bumper is at ``x`` when driving 
     \qquad u = \pm\, \dot x, \qquad a = \pm\, \ddot x
 
 (``xVelocity`` and ``xAcceleration`` are signed along the image axis).  The lateral position
-is the box's centre ``y + height / 2``; the lane is ``laneId``; the carriageway (group) is the
+is the box's centre :math:`y_c = y + h/2`; the lane is the interval of the carriageway's lane
+markings (``upperLaneMarkings`` for direction 1, ``lowerLaneMarkings`` for 2: y positions
+separated by ``;``) that holds :math:`y_c`, as highD derives its own ``laneId`` (so leaders
+recomputed from positions use the markings, not ``laneId``); the carriageway (group) is the
 driving direction.  The leader is ``precedingId`` (0: none).  highD's own ``dhw``, ``thw`` and
 ``ttc`` (0 where there is no leader or no valid TTC) are kept for the cross-check
 (:mod:`acc_fusion.truth.replay.crosscheck`): ``dhw`` is taken as the bumper-to-bumper
@@ -36,8 +39,8 @@ from acc_fusion.truth.replay.rows import ReplayError, Rows
 
 #: The columns of ``NN_tracks.csv`` the replay reads.
 TRACK_COLUMNS = (
-    "frame", "id", "x", "y", "width", "height", "xVelocity", "xAcceleration", "laneId",
-    "precedingId", "dhw", "thw", "ttc",
+    "frame", "id", "x", "y", "width", "height", "xVelocity", "xAcceleration", "precedingId",
+    "dhw", "thw", "ttc",
 )  # fmt: skip
 
 
@@ -62,9 +65,9 @@ class HighDRecording(Recording):
         self.path = csvfile.existing(folder / f"{stem}_tracks.csv", "highD tracks file")
         meta_path = csvfile.existing(folder / f"{stem}_recordingMeta.csv", "highD recording meta")
         tracks_meta = csvfile.existing(folder / f"{stem}_tracksMeta.csv", "highD tracks meta")
-        meta = _recording_meta(meta_path)
-        self.frame_rate = meta["frameRate"]
+        self.frame_rate, upper, lower = _recording_meta(meta_path)
         self.dt = 1.0 / self.frame_rate
+        self._markings = {1: upper, 2: lower}
         self.numbers = csvfile.resolve(self.path, TRACK_COLUMNS)
         names = csvfile.resolve(tracks_meta, META_COLUMNS)
         meta = {k: [] for k in META_COLUMNS}
@@ -106,13 +109,19 @@ class HighDRecording(Recording):
             )
         left = self._meta_dir[k] == 1
         sign = np.where(left, -1.0, 1.0)
+        centre = b["y"] + 0.5 * b["height"]
+        lane = np.where(
+            left,
+            np.searchsorted(self._markings[1], centre, side="right"),
+            np.searchsorted(self._markings[2], centre, side="right"),
+        )
         leader = b["precedingId"].astype(np.int64)
         return Rows(
             frame=frame,
             vid=vid,
             s=np.where(left, -b["x"], b["x"] + b["width"]),
-            lat=b["y"] + 0.5 * b["height"],
-            lane=b["laneId"].astype(np.int64),
+            lat=centre,
+            lane=lane.astype(np.int64),
             group=self._meta_dir[k],
             speed=sign * b["xVelocity"],
             accel=sign * b["xAcceleration"],
@@ -126,24 +135,33 @@ class HighDRecording(Recording):
         )
 
 
-def _recording_meta(path: Path) -> dict[str, float]:
-    """The ``frameRate`` [Hz] of a recording meta file."""
+def _recording_meta(path: Path) -> tuple[float, np.ndarray, np.ndarray]:
+    """The ``frameRate`` [Hz] and the upper and lower lane markings [m] of a recording meta
+    file."""
     with path.open(newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     if not rows:
         raise ReplayError(f"{path}, line 2: no recording row")
     row = {k.strip(): (v or "").strip() for k, v in rows[0].items() if k}
-    if "frameRate" not in row:
-        raise ReplayError(f"{path}, line 1: no column 'frameRate'")
-    try:
-        rate = float(row["frameRate"])
-    except ValueError:
-        raise ReplayError(
-            f"{path}, line 2, column 'frameRate': {row['frameRate']!r} is not a number"
-        ) from None
+
+    def numbers(name: str) -> np.ndarray:
+        if name not in row:
+            raise ReplayError(f"{path}, line 1: no column {name!r}")
+        try:
+            values = np.array([float(x) for x in row[name].split(";")])
+        except ValueError:
+            raise ReplayError(
+                f"{path}, line 2, column {name!r}: {row[name]!r} is not a number or a list "
+                "of numbers separated by ';'"
+            ) from None
+        if not np.isfinite(values).all() or np.any(np.diff(values) <= 0):
+            raise ReplayError(f"{path}, line 2, column {name!r}: must be finite and increasing")
+        return values
+
+    rate = float(numbers("frameRate")[0])
     if not rate > 0:
         raise ReplayError(f"{path}, line 2, column 'frameRate': must be > 0, got {rate:g}")
-    return {"frameRate": rate}
+    return rate, numbers("upperLaneMarkings"), numbers("lowerLaneMarkings")
 
 
 def highd_recordings(path: str | Path, numbers: list[int] | None = None) -> list[HighDRecording]:
