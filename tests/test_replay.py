@@ -125,9 +125,9 @@ def test_ngsim_feet_are_converted_and_space_headway_is_front_to_front(ngsim_traf
     assert check.figures["ttc"].compared == 0  # NGSIM has no TTC column
 
 
-def test_generic_csv_on_a_curve_centre_positions_lanes_from_lateral(ngsim_traffic, tmp_path):
-    """Positions are arc lengths along the (curved) lane, measured at the centre; the lanes
-    come from the lateral positions and the leaders are recomputed (no leader column)."""
+def test_generic_csv_centre_positions_lanes_from_lateral(ngsim_traffic, tmp_path):
+    """Positions measured at the vehicle's centre; the lanes come from the lateral positions
+    and the leaders are recomputed (no leader column)."""
     path = write_csv(ngsim_traffic, tmp_path / "curve.csv", leader=False)
     mapping = CsvMapping(position="s_mid", position_ref="centre", lane=None, lateral="y",
                          lane_width=3.75)  # fmt: skip
@@ -284,3 +284,33 @@ def test_a_recorded_late_reaction_to_a_braking_lead_is_warned(tmp_path, brake):
         assert s.relevant == s.relevant_detected == 1 and s.crash_relevant == 1
     else:
         assert s.threats == s.warnings == s.relevant == 0
+
+
+def test_a_curve_in_road_coordinates_gives_gaps_along_the_lane(tmp_path):
+    """Vehicles on a ring road of radius 200 m, two lanes: the CSV gives each vehicle's arc
+    length along its lane and its lateral offset; the gap is along the arc, not the chord."""
+    radius, width, length, dt = 200.0, 3.75, 4.5, 0.1
+    t = np.arange(0.0, 10.0, dt)
+    lines = ["t,id,s,y,v,a,length"]
+    angles = {}
+    for vid, (lane, theta0, speed) in enumerate(
+        [(0, 0.0, 25.0), (0, 0.2, 22.0), (1, 0.05, 24.0), (1, 0.3, 20.0)], start=1
+    ):
+        r = radius + (lane - 0.5) * width
+        theta = theta0 + speed * t / r
+        angles[vid] = (r, theta)
+        lines += [f"{tk:.1f},{vid},{r * th:.6f},{(lane - 0.5) * width},{speed},0,{length}"
+                  for tk, th in zip(t, theta, strict=True)]  # fmt: skip
+    path = tmp_path / "ring.csv"
+    path.write_text("\n".join(lines) + "\n")
+    mapping = CsvMapping(lane=None, lateral="y", lane_width=width)
+    pairs = build_pairs(_rows(CsvRecording(path, mapping)))
+    for follower, leader in ((1, 2), (3, 4)):
+        (r, th_f), (_, th_l) = angles[follower], angles[leader]
+        rows = pairs.vid == follower
+        assert np.all(pairs.leader_id[rows] == leader)
+        arc = r * (th_l - th_f) - length
+        chord = 2 * r * np.sin((th_l - th_f) / 2) - length
+        assert np.abs(pairs.gap[rows] - arc).max() < 1e-4
+        assert arc[0] - chord[0] > 0.05  # 35 m apart the two differ: the replay follows the lane
+    assert not pairs.has_leader[(pairs.vid == 2) | (pairs.vid == 4)].any()
