@@ -88,7 +88,9 @@ def test_highd_cross_check_sees_a_front_to_front_headway(traffic, tmp_path):
     assert check.figures["headway"].mean_diff == pytest.approx(-mean_length, rel=1e-3)
 
 
-def test_highd_leaders_from_the_file_agree_with_the_recomputed_ones(traffic, tmp_path):
+@pytest.mark.parametrize("lanes", [2, 3])
+def test_highd_leaders_from_the_file_agree_with_the_recomputed_ones(lanes, tmp_path):
+    traffic = simulate_traffic(lanes=lanes, duration=40.0, dt=0.04, seed=3)
     write_highd(traffic, tmp_path, 1)
     rows = _rows(HighDRecording(tmp_path, 1))
     a, b = build_pairs(rows), build_pairs(rows, recompute=True)

@@ -73,7 +73,7 @@ def test_a_missing_column(tmp_path, traffic, capsys):
 def test_bad_lane_markings(tmp_path, traffic, capsys):
     folder, _ = _highd(tmp_path, traffic)
     meta = folder / "01_recordingMeta.csv"
-    meta.write_text(meta.read_text().replace("9.5;13.25;17", "9.5;wide;17"))
+    _edit_line(meta, 2, lambda f: [*f[:-1], "5.75;wide"])  # the last column
     err = _replay_error(capsys, "--format", "highd", "--path", str(folder))
     assert f"{meta}, line 2, column 'lowerLaneMarkings':" in err
 

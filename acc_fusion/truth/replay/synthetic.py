@@ -41,7 +41,9 @@ class Traffic:
     per frame, ordered by vehicle then frame): ``frame``, ``vid``, ``s`` (front bumper [m]),
     ``lane``, ``lat`` (centre [m]), ``speed`` [m/s], ``accel`` [m/s²], ``length`` [m],
     ``direction`` (1 or 2, highD's carriageways), ``leader`` (the vehicle ahead in the lane
-    within the section, -1: none), and the frame period ``dt`` [s] and ``section`` [m]."""
+    within the section, -1: none), the frame period ``dt`` [s], ``section`` [m] and the
+    ``lanes`` per carriageway (lanes ``0 .. lanes - 1`` drive in direction 1, the others in
+    direction 2; lane ``k``'s centre is at ``(k + 1/2) LANE_WIDTH``)."""
 
     frame: np.ndarray
     vid: np.ndarray
@@ -55,6 +57,7 @@ class Traffic:
     leader: np.ndarray
     dt: float
     section: float
+    lanes: int
 
     def _leader_rows(self) -> np.ndarray:
         """Row index of each row's leader (-1: none)."""
@@ -164,7 +167,7 @@ def simulate_traffic(
     frame, vid, ss, ln, la, sp, ac, le, ld = (c[order] for c in cols)
     direction = np.where(ln < lanes, 1, 2)
     return Traffic(frame + 1, vid + 1, ss, ln, la, sp, ac, le, direction,
-                   np.where(ld >= 0, ld + 1, -1), dt, section)  # fmt: skip
+                   np.where(ld >= 0, ld + 1, -1), dt, section, lanes)  # fmt: skip
 
 
 def _write(path: Path, columns: dict[str, np.ndarray], fmt: dict[str, str]) -> Path:
@@ -187,7 +190,8 @@ def write_highd(traffic: Traffic, folder: str | Path, number: int = 1) -> Path:
     left = tr.direction == 1
     x = np.where(left, tr.section + 20.0 - tr.s, tr.s - tr.length)
     width_y = 2.0
-    y = np.where(left, 0.0, 2.0) + tr.lat - 0.5 * width_y
+    median = 2.0  # the lower carriageway's markings start 2 m below the upper's last
+    y = np.where(left, 0.0, median) + tr.lat - 0.5 * width_y
     sign = np.where(left, -1.0, 1.0)
     gap = tr.gap()
     has = np.isfinite(gap)
@@ -225,8 +229,10 @@ def write_highd(traffic: Traffic, folder: str | Path, number: int = 1) -> Path:
         w = csv.writer(fh)
         w.writerow(["id", "frameRate", "locationId", "speedLimit", "duration",
                     "upperLaneMarkings", "lowerLaneMarkings"])  # fmt: skip
-        w.writerow([number, round(1.0 / tr.dt), 1, -1, tr.frame.max() * tr.dt, "0;3.75;7.5",
-                    "9.5;13.25;17"])  # fmt: skip
+        upper = ";".join(f"{m:g}" for m in LANE_WIDTH * np.arange(tr.lanes + 1))
+        k = np.arange(tr.lanes, 2 * tr.lanes + 1)
+        lower = ";".join(f"{m:g}" for m in median + LANE_WIDTH * k)
+        w.writerow([number, round(1.0 / tr.dt), 1, -1, tr.frame.max() * tr.dt, upper, lower])
     return path
 
 
