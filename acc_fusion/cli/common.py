@@ -16,6 +16,7 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.truth.sumo.config import SumoConfig
 
 
 def positive_int(text: str) -> int:
@@ -88,6 +89,39 @@ def add_sim_arguments(p: argparse.ArgumentParser, runs_help: str | None) -> None
     p.add_argument("--seed", type=seed, help="random seed (default 0)")
     if runs_help:
         p.add_argument("--runs", type=positive_int, help=runs_help)
+
+
+def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
+    """The SUMO traffic's flags of the commands that run it (``sumo``, ``tune``):
+    ``--penetration``, ``--hazard-rate``, ``--inattentive``."""
+    p.add_argument(
+        "--penetration", type=float, default=1.0, help="fraction of equipped vehicles (default 1)"
+    )
+    p.add_argument(
+        "--hazard-rate",
+        type=float,
+        default=2.0,
+        help="injected emergency brakings per vehicle-hour (default 2)",
+    )
+    p.add_argument(
+        "--inattentive",
+        type=float,
+        default=0.2,
+        help="fraction of equipped drivers who react late (default 0.2)",
+    )
+
+
+def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
+    """The :class:`SumoConfig` of the ``.sumocfg`` at ``path`` with the flags of
+    :func:`add_traffic_arguments` and ``--end``; ``fields`` set the rest."""
+    return SumoConfig(
+        sumocfg=str(path),
+        end=args.end,
+        penetration=args.penetration,
+        hazard_rate=args.hazard_rate,
+        inattentive=args.inattentive,
+        **fields,
+    )
 
 
 def config_data(args: argparse.Namespace) -> tuple[dict, str]:

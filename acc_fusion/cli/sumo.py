@@ -6,13 +6,14 @@ import argparse
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
+    add_traffic_arguments,
     positive_float,
     sim_config,
+    traffic_config,
     write_study,
 )
 from acc_fusion.core.outputs import output_dir
 from acc_fusion.studies.traffic import sumo_study
-from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
@@ -32,21 +33,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     where.add_argument("--net", help="bundled network: motorway, onramp, ring, arterial")
     where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
     p.add_argument("--end", type=positive_float, help="simulated seconds (default: the file's)")
-    p.add_argument(
-        "--penetration", type=float, default=1.0, help="fraction of equipped vehicles (default 1)"
-    )
-    p.add_argument(
-        "--hazard-rate",
-        type=float,
-        default=2.0,
-        help="injected emergency brakings per vehicle-hour (default 2)",
-    )
-    p.add_argument(
-        "--inattentive",
-        type=float,
-        default=0.2,
-        help="fraction of equipped drivers who react late (default 0.2)",
-    )
+    add_traffic_arguments(p)
     p.add_argument("--step-length", type=positive_float, help="SUMO step [s] (default: the file's)")
     p.add_argument("--gui", action="store_true", help="sumo-gui, vehicles coloured by warning")
     add_sim_arguments(p, None)
@@ -57,15 +44,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
 
     path = resolve_sumocfg(args.net, args.sumocfg)
-    sumo_cfg = SumoConfig(
-        sumocfg=str(path),
-        end=args.end,
-        penetration=args.penetration,
-        seed=args.seed or 0,
-        hazard_rate=args.hazard_rate,
-        inattentive=args.inattentive,
-        gui=args.gui,
-        step_length=args.step_length,
+    sumo_cfg = traffic_config(
+        args, path, seed=args.seed or 0, gui=args.gui, step_length=args.step_length
     )
     out = output_dir(args.out) if args.out else None
     sim = sim_config(args, runs=1)
