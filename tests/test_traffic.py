@@ -29,7 +29,8 @@ def test_resolve_errors_name_the_file_or_the_choices(tmp_path):
 
 
 def test_sumo_command_writes_the_table_and_files(tmp_path, capsys):
-    args = ["sumo", "--net", "onramp", "--end", "60", "--hazard-rate", "20", "--out", str(tmp_path)]
+    args = ["sumo", "--net", "onramp", "--end", "60", "--hazard-rate", "20", "--all-drives"]
+    args += ["--out", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "FCW in SUMO traffic: onramp.sumocfg" in out
@@ -39,6 +40,17 @@ def test_sumo_command_writes_the_table_and_files(tmp_path, capsys):
     assert set(data["fcw_off"]) == {"radar", "infrared", "centralized", "federated"}
     assert set(data["fcw_on"]) == {"federated"}
     assert data["ssm"]["vehicles"] > 0 and data["ssm"]["median_rel_diff"] < 0.05
+    # The benefit pairs the vehicles of both runs; its crashes are the summaries' collisions.
+    benefit = data["benefit"]
+    assert "Crashes FCW avoids" in out
+    assert benefit["crashes_off"] == data["fcw_off"]["federated"]["collisions"] > 0
+    assert benefit["crashes_on"] == data["fcw_on"]["federated"]["collisions"]
+    assert benefit["vehicles"] > 0
+    assert {"reduction", "reduction_lo", "reduction_hi"} <= set(benefit)
+    by_method = data["benefit_by_method"]
+    assert set(by_method) == {"radar", "infrared", "centralized", "federated"}
+    assert by_method["federated"] == benefit
+    assert {b["crashes_off"] for b in by_method.values()} == {benefit["crashes_off"]}
     assert (tmp_path / "sumo_onramp_seed0.png").stat().st_size > 10_000
 
 

@@ -4,6 +4,7 @@ flags, and the writing of a study's outputs."""
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
 import yaml
 
@@ -16,6 +17,7 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.truth.distraction import TRAFFIC_DISTRACTION_RATE
 from acc_fusion.truth.sumo.config import SumoConfig
 
 
@@ -109,6 +111,13 @@ def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
         default=0.2,
         help="fraction of equipped drivers who react late (default 0.2)",
     )
+    p.add_argument(
+        "--distraction",
+        type=float,
+        metavar="RATE",
+        help="eyes-off-road episodes per driving hour of each equipped driver (default "
+        f"{TRAFFIC_DISTRACTION_RATE:g}; 0: none; driver.distraction.* for the durations)",
+    )
 
 
 def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
@@ -122,6 +131,21 @@ def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
         inattentive=args.inattentive,
         **fields,
     )
+
+
+def traffic_sim_config(args: argparse.Namespace) -> SimConfig:
+    """:func:`sim_config` of a traffic command: one run, the drivers distracted at
+    ``--distraction`` (else the config's ``driver.distraction.rate`` if given, else
+    :data:`~acc_fusion.truth.distraction.TRAFFIC_DISTRACTION_RATE`)."""
+    cfg = sim_config(args, runs=1)
+    given = config_data(args)[0].get("driver", {}).get("distraction", {})
+    rate = args.distraction
+    if rate is None and "rate" not in given:
+        rate = TRAFFIC_DISTRACTION_RATE
+    if rate is None:
+        return cfg
+    distraction = replace(cfg.driver.distraction, rate=rate)
+    return replace(cfg, driver=replace(cfg.driver, distraction=distraction))
 
 
 def config_data(args: argparse.Namespace) -> tuple[dict, str]:
