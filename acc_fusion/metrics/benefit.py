@@ -74,8 +74,9 @@ def paired_benefit(
     resamples: int = 4000,
     seed: int = 0,
 ) -> Benefit:
-    """:class:`Benefit` of the vehicles ``vehicles`` (ids), given the impact speed [m/s] of
-    each vehicle that crashed in each run (``{id: speed}``) and each run's exposure [km].
+    """:class:`Benefit` of the vehicles ``vehicles`` (ids; or any paired unit, such as the runs
+    of a scripted batch), given the impact speed [m/s] of each vehicle that crashed in each
+    run (``{id: speed}``) and each run's exposure [km].
 
     >>> b = paired_benefit(range(10), {0: 5.0, 1: 8.0}, {1: 3.0}, 100.0, 100.0)
     >>> b.crashes_off, b.crashes_on, b.reduction, b.avoided, b.mitigated, b.introduced

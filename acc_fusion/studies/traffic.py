@@ -27,6 +27,7 @@ from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.studies.compare import benefit_table, class_table, on_off_table
+from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
 from acc_fusion.truth.sumo.source import SumoSource
@@ -47,40 +48,6 @@ class _MinTTC:
                 self.min_ttc[vid] = min(self.min_ttc.get(vid, np.inf), float(ttc[k]))
 
 
-class _Crashes:
-    """Per equipped vehicle id seen, its impact speed if it ran into its lead (the pairing
-    of :meth:`SumoStudy.benefit`).  SUMO removes a vehicle that collided, so its slot's id
-    is the one of the step before."""
-
-    def __init__(self, source) -> None:
-        self.source = source
-        self.vehicles: set[str] = set()
-        self.crashes: dict[str, float] = {}
-        self._ids: list[str | None] = []
-
-    def __call__(self, view: StepView) -> None:
-        src = self.source
-        ids, k = src.vehicle_ids, len(view.ttc)
-        for i in np.flatnonzero(src.collided[:k]):
-            vid = ids[i] or (self._ids[i] if i < len(self._ids) else None)
-            if vid is not None and vid not in self.crashes:
-                self.crashes[vid] = float(src.collision_speed[i])
-        self.vehicles.update(ids[i] for i in np.flatnonzero(src.active[:k]))
-        self._ids = list(ids)
-
-
-def _then(first, second):
-    """The ``on_step`` hook that calls ``first`` (if any), then ``second``."""
-    if first is None:
-        return second
-
-    def both(view: StepView) -> None:
-        first(view)
-        second(view)
-
-    return both
-
-
 @dataclass
 class SumoRun:
     """What one SUMO run returns from its worker process.
@@ -88,7 +55,8 @@ class SumoRun:
     ``collisions`` counts every collision SUMO reported (equipped or not); the collisions of
     equipped vehicles are in each summary.  ``error`` is SUMO's message when it failed
     mid-run (the summaries then cover the run up to the failure, and ``steps`` is 0);
-    ``steps`` counts the simulation steps of a completed run.
+    ``steps`` counts the simulation steps of a completed run.  ``vehicles``: the equipped
+    vehicles driven; ``crashes``: the impact speed of each that ran into its lead.
     """
 
     summaries: dict[str, FCWSummary]
@@ -113,12 +81,12 @@ def _run(
     config = replace(sumo_config, ssm=cross_check)
     background = sim.drive is None and not config.gui
     with BackgroundSumoSource(config) if background else SumoSource(config) as source:
-        crashes = _Crashes(source)
+        crashes = CrashLog(source, lambda: source.vehicle_ids)
         min_ttc = _MinTTC(source) if cross_check else None
-        hook = _then(min_ttc, crashes)
+        hook = chain(min_ttc, crashes)
         if sumo_config.gui:
             method = sim.methods[-1]
-            hook = _then(hook, lambda view: source.set_warning_colors(view.levels[method]))
+            hook = chain(hook, lambda view: source.set_warning_colors(view.levels[method]))
         metrics_so_far: dict[str, FCWSummary] = {}
         error, steps = None, 0
         try:
@@ -145,7 +113,7 @@ def _run(
             pairs,
             error,
             steps,
-            crashes.vehicles,
+            crashes.units,
             crashes.crashes,
         )
 
