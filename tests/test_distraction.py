@@ -3,15 +3,18 @@ short; the draws are reproducible per slot; the crash benefit is paired by vehic
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from acc_fusion.cli.main import main
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.metrics.benefit import paired_benefit
-from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.truth.distraction import DistractionConfig
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import TruthFrame
+from acc_fusion.truth.scripted import make_scenario
 
 DT = 0.1
 
@@ -116,14 +119,35 @@ def test_bad_distraction_settings_are_one_line_errors(fields, match):
         DistractionConfig(**fields)
 
 
-def test_a_source_that_cannot_hold_a_vehicle_refuses_distraction():
-    cfg = SimConfig(
-        scenario="nhtsa_lvd",
-        drive="federated",
-        driver=DriverConfig(distraction=DistractionConfig(rate=60.0)),
-    )
-    with pytest.raises(ConfigError, match="cannot hold a distracted driver"):
-        simulate(cfg)
+def test_a_held_scripted_ego_keeps_its_speed_instead_of_following_its_idm():
+    free, held = (make_scenario("stop_and_go", 3, seed=2) for _ in range(2))
+    v0 = held.frame().ego_speed.copy()
+    for _ in range(100):
+        f_free = free.advance()
+        f_held = held.advance(None, np.ones(3, dtype=bool))
+    np.testing.assert_allclose(f_held.ego_speed, v0)
+    assert np.abs(f_free.ego_speed - v0).max() > 1.0  # its IDM would have changed speed
+
+
+def test_an_attentive_driver_who_sees_threats_brakes_by_himself():
+    sees = Driver(2, DriverConfig(sees_threats=True), seed=1)
+    blind = Driver(2, DriverConfig(), seed=1)
+    threat = np.array([True, False])
+    for k in range(40):
+        f = frame(k * DT, 2)
+        b_sees, b_blind = sees.step(np.zeros(2), f, threat), blind.step(np.zeros(2), f, threat)
+    assert b_sees[0] == sees.deceleration[0] and b_sees[1] == 0.0
+    assert (b_blind == 0).all()
+
+
+def test_the_scripted_comparison_with_a_human_driver_pairs_runs(tmp_path, capsys):
+    args = ["compare", "--runs", "20", "--distraction", "120", "--out", str(tmp_path)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "brakes by himself for a crash-relevant situation" in out
+    data = json.loads((tmp_path / "compare.json").read_text())
+    assert data["benefit"]["crashes_off"] == data["collisions"]["off"]
+    assert data["benefit"]["crashes_on"] == data["collisions"]["on"]
 
 
 def test_the_paired_benefit_and_its_interval():

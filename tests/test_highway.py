@@ -9,6 +9,7 @@ import json
 import re
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +19,10 @@ pytest.importorskip("highway_env")
 
 from acc_fusion.cli.main import main  # noqa: E402
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
-from acc_fusion.sim.closed_loop import SimConfig  # noqa: E402
+from acc_fusion.sim.closed_loop import SimConfig, simulate  # noqa: E402
 from acc_fusion.studies.highway import highway_study
+from acc_fusion.truth.distraction import DistractionConfig
+from acc_fusion.truth.driver import DriverConfig
 from acc_fusion.truth.highway.config import (
     INSTALL,
     SUPPORTED,
@@ -293,3 +296,14 @@ def test_bench_script_prints_the_ratio():
     )
     assert proc.returncode == 0, proc.stderr
     assert re.fullmatch(r"overhead_ratio=\d+\.\d+", proc.stdout.strip().splitlines()[-1])
+
+
+def test_highway_env_refuses_distracted_drivers():
+    cfg = SimConfig(
+        runs=1,
+        drive="federated",
+        driver=DriverConfig(distraction=DistractionConfig(rate=60.0)),
+    )
+    with HighwaySource(HighwayConfig("highway-fast-v0", episodes=1, duration=1.0)) as source:
+        with pytest.raises(ConfigError, match="cannot hold a distracted driver"):
+            simulate(replace(cfg, dt=source.dt), source=source)

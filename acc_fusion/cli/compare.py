@@ -5,6 +5,7 @@ runs: false alarms, misses, lead time; then collisions with FCW on and off.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
@@ -28,6 +29,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     add_sim_arguments(p, "Monte Carlo runs (default 200)")
     p.add_argument(
+        "--distraction",
+        type=float,
+        metavar="RATE",
+        help="a human driver in the closed loops: he brakes by himself for a crash-relevant "
+        "situation when his eyes are on the road, and looks away RATE times per hour "
+        "(default: a driver who never brakes by himself)",
+    )
+    p.add_argument(
         "--all-drives",
         action="store_true",
         help="one closed loop with warnings on per method (radar, infrared, centralized, "
@@ -40,6 +49,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
+    if args.distraction is not None:
+        distraction = replace(cfg.driver.distraction, rate=args.distraction)
+        cfg = replace(cfg, driver=replace(cfg.driver, distraction=distraction, sees_threats=True))
     out = output_dir(args.out) if args.out else None
     comparison = compare(cfg, progress=True, drives=cfg.methods if args.all_drives else ())
     table, classes = comparison.table(), comparison.classes()

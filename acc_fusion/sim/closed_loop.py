@@ -458,7 +458,7 @@ def simulate(
             if driver is not None:  # the brake requests of the slots beyond the prefix: none
                 heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)
                 brake = np.zeros(n)
-                brake[: frame.n_pairs] = driver.step(heard, frame)
+                brake[: frame.n_pairs] = driver.step(heard, frame, p.relevant)
             if driver is not None and driver.distracts:
                 hold = np.zeros(n, dtype=bool)
                 hold[: frame.n_pairs] = driver.holding

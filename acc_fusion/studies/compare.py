@@ -221,7 +221,14 @@ class Comparison:
         cfg = self.result.config
         title = f"Crashes FCW avoids, {cfg.runs} runs of '{cfg.scenario}', same seeds"
         t = benefit_table(title, self.benefits, unit="runs")
-        t.notes.append("FCW off: the scripted ego's driver never brakes by himself")
+        driver = self.result.config.driver
+        if driver.sees_threats:
+            t.notes.append(
+                "FCW off: the driver brakes by himself for a crash-relevant situation when "
+                f"his eyes are on the road ({driver.distraction.rate:g} eyes-off episodes/h)"
+            )
+        else:
+            t.notes.append("FCW off: the scripted ego's driver never brakes by himself")
         return t
 
 

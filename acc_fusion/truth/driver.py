@@ -90,6 +90,10 @@ class DriverConfig:
         react_to_level: lowest warning level the driver reacts to; 1 (caution).
         release: when he stops braking, one of :data:`RELEASE_RULES`; ``"not_closing"``.
         distraction: his eyes-off-road episodes; none by default.
+        sees_threats: whether, eyes on the road, he brakes by himself at the onset of a
+            crash-relevant situation (truth's, :mod:`acc_fusion.metrics.alert_classes`) after
+            his reaction time; False.  For truth sources whose ego has no car-following model
+            of its own (the scripted manoeuvres); SUMO's and highway-env's vehicles have one.
     """
 
     reaction_time_median: float = 1.1
@@ -101,6 +105,7 @@ class DriverConfig:
     react_to_level: int = 1
     release: str = "not_closing"
     distraction: DistractionConfig = DistractionConfig()
+    sees_threats: bool = False
 
     def __post_init__(self) -> None:
         checked = {
@@ -217,12 +222,17 @@ class Driver(PairState):
     def _resized(self, m: int) -> None:
         self.n_runs = m
 
-    def step(self, warning: np.ndarray, frame: TruthFrame) -> np.ndarray:
+    def step(
+        self, warning: np.ndarray, frame: TruthFrame, threat: np.ndarray | None = None
+    ) -> np.ndarray:
         """The brake request of every driver for the step starting at ``frame.t``.
 
         Args:
             warning: ``(N,)`` warning level of each run (0 = none; ``bool`` is level 1).
             frame: what the drivers see: the truth at this step (time, ego speed, range-rate).
+            threat: ``(N,)`` bool, the runs in a crash-relevant situation in truth; with
+                :attr:`DriverConfig.sees_threats`, a driver whose eyes are on the road reacts
+                to its onset as to a warning's.
 
         Returns:
             ``(N,)`` requested deceleration [m/s², >= 0]; 0 where the driver does not brake.
@@ -232,9 +242,12 @@ class Driver(PairState):
             raise InputError(f"frame must hold {self.n_runs} runs, got {frame.n_pairs}")
         t = frame.t
         warned = level >= self.config.react_to_level
+        alarmed = warned
+        if self.config.sees_threats and threat is not None:
+            alarmed = warned | (np.asarray(threat, dtype=bool) & ~self.eyes_off)
         idle = np.isnan(self._onset) & ~self._braking
-        self._onset[warned & ~self._warned & idle] = t
-        self._warned = warned
+        self._onset[alarmed & ~self._warned & idle] = t
+        self._warned = alarmed
         if self.distracts:
             ended = t >= self._eyes_back - TIME_TOL  # False where eyes on (NaN)
             self._look_back(ended, t)

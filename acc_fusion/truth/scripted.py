@@ -164,6 +164,9 @@ class ScenarioSource:
     restarted.
     """
 
+    #: It keeps a distracted driver's speed (:meth:`advance`'s ``hold``).
+    accepts_hold = True
+
     def __init__(
         self,
         name: str,
@@ -205,6 +208,7 @@ class ScenarioSource:
         self._x = plan.position.astype(float)
         self._v = plan.speed.astype(float)
         self._brake = np.zeros(self.n_runs)
+        self._hold = np.zeros(self.n_runs, dtype=bool)
         self._braked = np.zeros(self.n_runs, dtype=bool)
         self._end_time = np.full(self.n_runs, np.inf)
         self._collided = np.zeros(self.n_runs, dtype=bool)
@@ -315,12 +319,17 @@ class ScenarioSource:
             self._frame = self.state().frame()
         return self._frame
 
-    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+    def advance(
+        self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None
+    ) -> TruthFrame:
         """Move every active run one step and return the new frame.
 
         Args:
             ego_brake: ``(N,)`` deceleration requested by each run's driver [m/s², >= 0] for
                 this step; 0 or NaN (or ``None`` for all) means no request: the scripted ego.
+            hold: ``(N,)`` bool, the runs whose driver is distracted
+                (:attr:`acc_fusion.truth.driver.Driver.holding`): without a brake request
+                the ego keeps its speed instead of following its script or IDM.
         """
         if ego_brake is None:
             self._brake = np.zeros(self.n_runs)
@@ -328,6 +337,11 @@ class ScenarioSource:
             brake = check_array("ego_brake", ego_brake, (self.n_runs,), finite=False)
             brake = np.where(np.isnan(brake), 0.0, brake)
             self._brake = check_array("ego_brake", brake, nonnegative=True)
+        self._hold = (
+            np.zeros(self.n_runs, dtype=bool)
+            if hold is None
+            else check_array("hold", hold, (self.n_runs,)).astype(bool)
+        )
         active = self.active
         ego_a, target, rate = self._controls()
         ego_x, ego_v = _ramp(
@@ -434,7 +448,8 @@ class ScenarioSource:
         slot, has, gap, _ = self._leader()
         lead_v = self._v[self._rows, slot]
         idm = IDM.accel(self._ego_v, plan.desired_speed, plan.time_headway, gap, lead_v, has)
-        ego_a = np.where(self._brake > 0, -self._brake, np.where(plan.idm, idm, 0.0))
+        own = np.where(plan.idm & ~self._hold, idm, 0.0)
+        ego_a = np.where(self._brake > 0, -self._brake, own)
         return ego_a, target, rate
 
     def _settle(self, active: np.ndarray) -> None:
