@@ -20,6 +20,8 @@ Each of N drivers (one per run) watches the warning level of his run:
    time brakes if he is closing on his lead); a warning during an episode ends it by the
    same route, earlier.  Braking after an episode is his own, at :math:`d`, with no help
    from the source's car-following model.
+6. With ``sees_threats`` (for egos without a car-following model of their own) the onset of
+   a crash-relevant situation in truth, seen with his eyes on the road, is an onset too.
 
 Per-driver draws (at construction, from ``numpy.random.default_rng(seed)``; same seed, same
 drivers):
@@ -151,7 +153,7 @@ class Driver(PairState):
 
     _PAIR_AXES = dict.fromkeys(
         (
-            "reaction_time", "deceleration", "_onset", "_braking", "_warned",
+            "reaction_time", "deceleration", "_onset", "_braking", "_alarmed",
             "_eyes_back", "_next_episode", "_episodes", "_holding", "_slot",
         ),
         0,
@@ -178,7 +180,7 @@ class Driver(PairState):
         )
         self._onset = np.full(self.n_runs, np.nan)
         self._braking = np.zeros(self.n_runs, dtype=bool)
-        self._warned = np.zeros(self.n_runs, dtype=bool)
+        self._alarmed = np.zeros(self.n_runs, dtype=bool)
         distracts = config.distraction.rate > 0
         # A spawned key leaves the draws above as they were and is the same for any n_runs.
         key = rng.spawn(1)[0].integers(2**63)
@@ -215,7 +217,7 @@ class Driver(PairState):
         vehicle in that slot keeps the slot's reaction time and deceleration draws)."""
         self._onset[mask] = np.nan
         self._braking[mask] = False
-        self._warned[mask] = False
+        self._alarmed[mask] = False
         self._eyes_back[mask] = np.nan
         self._holding[mask] = False
 
@@ -246,8 +248,8 @@ class Driver(PairState):
         if self.config.sees_threats and threat is not None:
             alarmed = warned | (np.asarray(threat, dtype=bool) & ~self.eyes_off)
         idle = np.isnan(self._onset) & ~self._braking
-        self._onset[alarmed & ~self._warned & idle] = t
-        self._warned = alarmed
+        self._onset[alarmed & ~self._alarmed & idle] = t
+        self._alarmed = alarmed
         if self.distracts:
             ended = t >= self._eyes_back - TIME_TOL  # False where eyes on (NaN)
             self._look_back(ended, t)
