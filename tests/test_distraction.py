@@ -140,6 +140,15 @@ def test_an_attentive_driver_who_sees_threats_brakes_by_himself():
     assert (b_blind == 0).all()
 
 
+def test_a_driver_who_judges_brakes_for_a_warning_only_in_a_crash_relevant_situation():
+    cfg = DriverConfig(react_to_level=1, brakes_only_for_threats=True)
+    d = Driver(2, cfg, seed=1)
+    threat = np.array([True, False])
+    for k in range(40):  # both warned from the start; only run 0 is in danger
+        brake = d.step(np.ones(2), frame(k * DT, 2), threat)
+    assert brake[0] == d.deceleration[0] and brake[1] == 0.0
+
+
 def test_the_scripted_comparison_with_a_human_driver_pairs_runs(tmp_path, capsys):
     args = ["compare", "--runs", "20", "--distraction", "120", "--out", str(tmp_path)]
     assert main(args) == 0

@@ -136,16 +136,17 @@ def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
 def traffic_sim_config(args: argparse.Namespace) -> SimConfig:
     """:func:`sim_config` of a traffic command: one run, the drivers distracted at
     ``--distraction`` (else the config's ``driver.distraction.rate`` if given, else
-    :data:`~acc_fusion.truth.distraction.TRAFFIC_DISTRACTION_RATE`)."""
+    :data:`~acc_fusion.truth.distraction.TRAFFIC_DISTRACTION_RATE`), braking for a warning
+    only when truth says they must (``driver.brakes_only_for_threats``)."""
     cfg = sim_config(args, runs=1)
-    given = config_data(args)[0].get("driver", {}).get("distraction", {})
-    rate = args.distraction
-    if rate is None and "rate" not in given:
-        rate = TRAFFIC_DISTRACTION_RATE
-    if rate is None:
-        return cfg
-    distraction = replace(cfg.driver.distraction, rate=rate)
-    return replace(cfg, driver=replace(cfg.driver, distraction=distraction))
+    given = config_data(args)[0].get("driver", {})
+    driver = cfg.driver
+    if args.distraction is not None or "rate" not in given.get("distraction", {}):
+        rate = TRAFFIC_DISTRACTION_RATE if args.distraction is None else args.distraction
+        driver = replace(driver, distraction=replace(driver.distraction, rate=rate))
+    if "brakes_only_for_threats" not in given:
+        driver = replace(driver, brakes_only_for_threats=True)
+    return replace(cfg, driver=driver)
 
 
 def config_data(args: argparse.Namespace) -> tuple[dict, str]:

@@ -29,9 +29,12 @@ distribution was fitted here):
   with median 1.2 s and log-sd 0.5, so that 15 % of episodes exceed 2 s, clipped to
   0.3-6 s.
 - Frequency.  Default 0 (off), so every study states the rate it assumes; ``acc-fusion sumo``
-  uses 120 episodes per hour (one every 30 s of attentive driving, about 5 % of the time
-  eyes off the road), an assumption: the field studies report the share of time on
-  secondary tasks (Klauer et al. 2006) rather than a rate of eyes-off episodes.
+  uses :data:`TRAFFIC_DISTRACTION_RATE`, 300 episodes per hour of attentive driving: with the
+  default durations (mean 1.36 s) the eyes are off the road about 10 % of the driving time,
+  the share reported for the naturalistic drivers of Klauer, Guo, Simons-Morton, Ouimet, Lee
+  & Dingus, "Distracted driving and risk of road crashes among novice and experienced
+  drivers", *N. Engl. J. Med.* 370:54-59, 2014 (as summarised in the NIH's release of the
+  study; the figure was not checked in the paper itself, so treat it as an assumption).
 """
 
 from __future__ import annotations
@@ -42,9 +45,9 @@ import numpy as np
 
 from acc_fusion.core.validation import check_interval, check_range
 
-#: Episodes per hour that the traffic commands (``acc-fusion sumo``, ``make run``) assume
-#: (an assumption, see the module docstring).
-TRAFFIC_DISTRACTION_RATE = 120.0
+#: Episodes per hour of attentive driving that the traffic commands (``acc-fusion sumo``,
+#: ``make run``) assume: eyes off the road about 10 % of the time (see the module docstring).
+TRAFFIC_DISTRACTION_RATE = 300.0
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,11 @@ Each of N drivers (one per run) watches the warning level of his run:
    from the source's car-following model.
 6. With ``sees_threats`` (for egos without a car-following model of their own) the onset of
    a crash-relevant situation in truth, seen with his eyes on the road, is an onset too.
+7. With ``brakes_only_for_threats``, when his reaction time has passed he looks at the road
+   and brakes only if the situation is crash-relevant in truth; otherwise he leaves it to his
+   car-following model (a nuisance alert costs no hard braking).  Lee et al. (2002) found that
+   a warning hastens the release of the accelerator, not braking itself; that a driver
+   ignores an alert he sees no reason for is our assumption.
 
 Per-driver draws (at construction, from ``numpy.random.default_rng(seed)``; same seed, same
 drivers):
@@ -96,6 +101,8 @@ class DriverConfig:
             crash-relevant situation (truth's, :mod:`acc_fusion.metrics.alert_classes`) after
             his reaction time; False.  For truth sources whose ego has no car-following model
             of its own (the scripted manoeuvres); SUMO's and highway-env's vehicles have one.
+        brakes_only_for_threats: whether, his reaction time passed, he brakes only in a
+            crash-relevant situation (else he leaves it to his car-following model); False.
     """
 
     reaction_time_median: float = 1.1
@@ -108,6 +115,7 @@ class DriverConfig:
     release: str = "not_closing"
     distraction: DistractionConfig = DistractionConfig()
     sees_threats: bool = False
+    brakes_only_for_threats: bool = False
 
     def __post_init__(self) -> None:
         checked = {
@@ -234,7 +242,9 @@ class Driver(PairState):
             frame: what the drivers see: the truth at this step (time, ego speed, range-rate).
             threat: ``(N,)`` bool, the runs in a crash-relevant situation in truth; with
                 :attr:`DriverConfig.sees_threats`, a driver whose eyes are on the road reacts
-                to its onset as to a warning's.
+                to its onset as to a warning's; with
+                :attr:`DriverConfig.brakes_only_for_threats`, a driver whose reaction is due
+                brakes only where it is set.
 
         Returns:
             ``(N,)`` requested deceleration [m/s², >= 0]; 0 where the driver does not brake.
@@ -255,7 +265,10 @@ class Driver(PairState):
             self._look_back(ended, t)
             self._onset[ended & np.isnan(self._onset) & ~self._braking] = t
         due = t >= self._onset + self.reaction_time - TIME_TOL  # False where no onset (NaN)
-        self._braking |= due
+        if self.config.brakes_only_for_threats and threat is not None:
+            self._braking |= due & np.asarray(threat, dtype=bool)
+        else:
+            self._braking |= due
         self._onset[due] = np.nan
         self._braking &= ~self._released(warned, frame)
         if self.distracts:

@@ -28,7 +28,8 @@ Kinematics (exact)
     speeds are never negative.  A segment starts at the first step boundary at or after its
     time (default event times are multiples of common steps).  The ego follows its scripted
     speed (constant; in ``following`` and ``stop_and_go`` the IDM, see :class:`IDMParameters`)
-    unless the run's driver requests a deceleration: then it brakes with that deceleration.
+    unless the run's driver requests a deceleration (it brakes with it) or looks away (it keeps
+    its speed).
     Once a driver has braked, a scripted constant-speed ego no longer returns to its script:
     it keeps its speed when the driver releases (the IDM ego resumes following).
 
@@ -86,15 +87,8 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.truth.frame import TruthFrame
-from acc_fusion.truth.manoeuvre_params import (
-    IDM,
-    OVERLAP_OFFSET,
-    SLOTS,
-    VEHICLE_LENGTH,
-)
+from acc_fusion.truth.manoeuvre_params import IDM, OVERLAP_OFFSET, SLOTS, VEHICLE_LENGTH
 from acc_fusion.truth.manoeuvres import SCENARIOS, _merge, _ramp, _ranges_table
-
-# --------------------------------------------------------------------------- the source
 
 
 @dataclass(frozen=True)
@@ -327,21 +321,17 @@ class ScenarioSource:
         Args:
             ego_brake: ``(N,)`` deceleration requested by each run's driver [m/s², >= 0] for
                 this step; 0 or NaN (or ``None`` for all) means no request: the scripted ego.
-            hold: ``(N,)`` bool, the runs whose driver is distracted
-                (:attr:`acc_fusion.truth.driver.Driver.holding`): without a brake request
-                the ego keeps its speed instead of following its script or IDM.
+            hold: ``(N,)`` bool, the runs whose driver looks away (``Driver.holding``): without
+                a brake request the ego keeps its speed instead of its script or IDM.
         """
-        if ego_brake is None:
-            self._brake = np.zeros(self.n_runs)
-        else:
-            brake = check_array("ego_brake", ego_brake, (self.n_runs,), finite=False)
-            brake = np.where(np.isnan(brake), 0.0, brake)
-            self._brake = check_array("ego_brake", brake, nonnegative=True)
-        self._hold = (
-            np.zeros(self.n_runs, dtype=bool)
-            if hold is None
-            else check_array("hold", hold, (self.n_runs,)).astype(bool)
+        n = self.n_runs
+        brake = check_array(
+            "ego_brake", np.zeros(n) if ego_brake is None else ego_brake, (n,), finite=False
         )
+        self._brake = check_array(
+            "ego_brake", np.where(np.isnan(brake), 0.0, brake), nonnegative=True
+        )
+        self._hold = check_array("hold", np.zeros(n) if hold is None else hold, (n,)).astype(bool)
         active = self.active
         ego_a, target, rate = self._controls()
         ego_x, ego_v = _ramp(
