@@ -11,7 +11,9 @@ from acc_fusion.metrics.alert_classes import AlertClassConfig, crash_relevant
 from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.warning.kinematics import required_deceleration, time_to_collision_braking_lead
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
+from acc_fusion.warning.safety import ttc
 from acc_fusion.warning.safety_kernels import _closest_approach
+from acc_fusion.warning.safety_params import TTCParams
 
 DT = 0.05
 
@@ -148,6 +150,26 @@ def test_nhtsa_lvd_ttc_judged_with_the_leads_deceleration():
     assert float(time_to_collision_braking_lead(30.0, v, v, a)[0]) == pytest.approx(
         np.sqrt(2 * 30.0 / (0.3 * G))
     )
+
+
+def test_the_ttc_rule_with_a_braking_lead_fires_at_its_ttc():
+    # At the distance the rule returns, the braking-lead TTC is the rule's threshold; a gap
+    # 1 % shorter is inside it, 1 % longer outside.  (An accelerating lead is taken at constant
+    # speed, as the rule uses only the lead's braking.)
+    rng = np.random.default_rng(3)
+    params = TTCParams(lead_braking=True)
+    v, vl = rng.uniform(5, 35, 300), rng.uniform(0, 35, 300)
+    a = np.where(rng.random(300) < 0.2, 0.0, -rng.uniform(0, 8, 300))
+    d_caution, d_imminent = ttc(v, vl - v, a, params)
+    for d, threshold in ((d_caution, params.ttc_caution), (d_imminent, params.ttc_imminent)):
+        closing = d > 0.5
+        assert closing.sum() > 100
+        at, lo, hi = (time_to_collision_braking_lead(f * d, v, vl, a) for f in (1, 0.99, 1.01))
+        np.testing.assert_allclose(at[closing], threshold, rtol=1e-9)
+        assert (lo[closing] < threshold).all() and (hi[closing] > threshold).all()
+    # Without lead braking it is the constant-speed TTC, which a braking lead does not change.
+    plain = ttc(v, vl - v, a, TTCParams())[1]
+    np.testing.assert_allclose(plain, TTCParams().ttc_imminent * np.maximum(v - vl, 0.0))
 
 
 def test_thresholds_are_checked():

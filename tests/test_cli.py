@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -60,8 +61,6 @@ def test_run_writes_png_csv_and_json(tmp_path, capsys):
     assert stem.with_suffix(".png").stat().st_size > 20_000
     header = stem.with_suffix(".csv").read_text().splitlines()[0]
     assert "federated_gap" in header and "radar_range" in header and "d_imminent" in header
-    import json
-
     summary = json.loads(stem.with_suffix(".json").read_text())
     assert summary["scenario"] == "nhtsa_lvs" and "federated" in summary["methods"]
 
@@ -74,6 +73,14 @@ def test_compare_and_config_file(tmp_path, capsys):
     assert "FCW comparison: 10 runs of 'random', seed 3" in out
     assert (tmp_path / "compare.png").stat().st_size > 10_000
     assert (tmp_path / "compare.json").exists() and (tmp_path / "compare.csv").exists()
+    # The benefit pairs each run with FCW off and on; its crashes are the closed loops'.
+    data = json.loads((tmp_path / "compare.json").read_text())
+    benefit, collisions = data["benefit"], data["collisions"]
+    assert "Crashes FCW avoids, 10 runs of 'random'" in out
+    assert benefit["vehicles"] == 10
+    assert (benefit["crashes_off"], benefit["crashes_on"]) == (collisions["off"], collisions["on"])
+    assert benefit["avoided"] + benefit["mitigated"] <= benefit["crashes_off"]
+    assert set(data["benefit_by_method"]) == {"federated"}
 
 
 def test_conformance_exit_code(capsys):

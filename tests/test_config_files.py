@@ -101,6 +101,19 @@ def test_set_checks_the_key(tmp_path, capsys):
     one_line_error(code, err, "fusion.bogus", "reset")
     code, _, err = run_cli(["config", "show", "--set", "runs"], capsys)
     one_line_error(code, err, "KEY=VALUE")
+    # Below a mapping-valued field (a model's params) any key passes to the model to check.
+    code, out, _ = run_cli(
+        [
+            "config",
+            "show",
+            "--set",
+            "warning.model=ttc",
+            "--set",
+            "warning.params.lead_braking=true",
+        ],
+        capsys,
+    )
+    assert code == 0 and "lead_braking" in out
 
 
 def test_a_sweep_name_cannot_leave_its_folder():

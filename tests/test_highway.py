@@ -5,9 +5,11 @@ benchmark script.  highway-fast-v0 with few vehicles and short episodes keeps it
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,8 +19,10 @@ pytest.importorskip("highway_env")
 
 from acc_fusion.cli.main import main  # noqa: E402
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
-from acc_fusion.sim.closed_loop import SimConfig  # noqa: E402
+from acc_fusion.sim.closed_loop import SimConfig, simulate  # noqa: E402
 from acc_fusion.studies.highway import highway_study
+from acc_fusion.truth.distraction import DistractionConfig
+from acc_fusion.truth.driver import DriverConfig
 from acc_fusion.truth.highway.config import (
     INSTALL,
     SUPPORTED,
@@ -211,6 +215,11 @@ def test_python_api_runs_every_environment(env):
     assert study.off.summaries["federated"].hours > 0
     assert study.off.episodes == 2 and study.off.pairs == (5 if env == "merge-v0" else 9)
     assert "ego-vehicle collisions" in table.format()
+    # The benefit pairs every (episode, ego) of both runs; its crashes are the collisions.
+    b = study.benefit()
+    assert b.vehicles == len(study.off.egos | study.on.egos) >= study.off.pairs
+    assert (b.crashes_off, b.crashes_on) == (study.off.collisions, study.on.collisions)
+    assert "Crashes FCW avoids" in study.benefits().format()
 
 
 def test_cli_writes_table_outputs_and_gif(tmp_path, capsys):
@@ -225,6 +234,10 @@ def test_cli_writes_table_outputs_and_gif(tmp_path, capsys):
     stem = tmp_path / "out" / "highway_highway-fast-v0_seed0"
     for suffix in (".csv", ".png", ".json"):
         assert Path(str(stem) + suffix).stat().st_size > 0
+    benefit = json.loads(Path(str(stem) + ".json").read_text())["benefit"]
+    assert {"crashes_off", "crashes_on", "reduction", "reduction_lo", "reduction_hi"} <= set(
+        benefit
+    )
     with Image.open(gif) as im:
         assert im.n_frames == 11  # 2 s at 5 Hz: frames 0..10 (the end frame included)
         assert im.size == (600, 150 + 34)
@@ -283,3 +296,14 @@ def test_bench_script_prints_the_ratio():
     )
     assert proc.returncode == 0, proc.stderr
     assert re.fullmatch(r"overhead_ratio=\d+\.\d+", proc.stdout.strip().splitlines()[-1])
+
+
+def test_highway_env_refuses_distracted_drivers():
+    cfg = SimConfig(
+        runs=1,
+        drive="federated",
+        driver=DriverConfig(distraction=DistractionConfig(rate=60.0)),
+    )
+    with HighwaySource(HighwayConfig("highway-fast-v0", episodes=1, duration=1.0)) as source:
+        with pytest.raises(ConfigError, match="cannot hold a distracted driver"):
+            simulate(replace(cfg, dt=source.dt), source=source)

@@ -300,6 +300,33 @@ def test_collision_of_an_inattentive_follower_is_detected(road):
         assert src.reassigned[slot] and not src.collided[slot]
 
 
+def test_a_held_follower_keeps_its_speed_into_a_braking_leader(road):
+    # An attentive follower (SUMO's car following) never hits a leader braking at 6 m/s²;
+    # a held one (eyes off the road) keeps its speed and does, and SUMO reports it.
+    with SumoSource(config(road, end=60.0, seed=5)) as src:
+        close = np.zeros(src.n_pairs, dtype=bool)
+        while not close.any():
+            f = src.advance()
+            close = f.has_leader & (f.gap < 30) & (f.ego_speed > 15) & (src.t > 10)
+        slot = int(np.flatnonzero(close)[np.argmin(f.gap[close])])
+        follower = src.vehicle_ids[slot]
+        leader = libsumo.vehicle.getLeader(follower, 250.0)[0]
+        for vid in (follower, leader):
+            libsumo.vehicle.setLaneChangeMode(vid, 0)
+        mode = libsumo.vehicle.getSpeedMode(follower)
+        assert src.inject_hazard(leader, decel=6.0, duration=10.0)
+        hold = np.zeros(src.n_pairs, dtype=bool)
+        hold[slot] = True
+        v0 = f.ego_speed[slot]
+        for _ in range(100):
+            f = src.advance(None, hold)
+            if src.collided[slot]:
+                break
+            assert f.ego_speed[slot] == pytest.approx(v0, abs=1e-9)
+            assert libsumo.vehicle.getSpeedMode(follower) == mode & ~0b101
+        assert src.collided[slot] and src.collision_speed[slot] > 3.0
+
+
 def test_ssm_min_ttc_cross_check(road):
     cfg = config(road, end=90.0, seed=2, ssm=True, hazard_rate=60.0)
     ours: dict[str, tuple[float, float]] = {}

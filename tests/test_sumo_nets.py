@@ -15,6 +15,7 @@ import xml.etree.ElementTree as ET
 from importlib.resources import as_file, files
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("libsumo")
@@ -126,7 +127,25 @@ print(json.dumps({"t500": t500, "lengths": lengths,
     )
     assert out["t500"] is not None and out["t500"] < 300
     assert out["lanes"] == 3
-    assert out["lengths"] == {"car": 5.0, "truck": 12.0, "semi": 16.5}
+    lengths = {t.rstrip("0123456789"): length for t, length in out["lengths"].items()}
+    assert lengths == {"car": 5.0, "truck": 12.0, "semi": 16.5}
+
+
+@pytest.mark.parametrize("name", ["motorway", "onramp"])
+def test_car_drivers_keep_human_like_headways(name):
+    """Twenty equally likely car types whose tau are the (i + 0.5)/20 quantiles of the
+    documented log-normal (median 1.2 s, log-sd 0.6), all else SUMO's passenger defaults."""
+    from scipy.stats import norm
+
+    with as_file(resource(name, "rou.xml")) as path:
+        root = ET.parse(path).getroot()
+    cars = [t for t in root.iter("vType") if t.get("id").startswith("car")]
+    taus = np.array([float(t.get("tau")) for t in cars])
+    want = 1.2 * np.exp(0.6 * norm.ppf((np.arange(20) + 0.5) / 20))
+    np.testing.assert_allclose(taus, want, atol=6e-4)
+    assert sum(float(t.get("probability")) for t in cars) == pytest.approx(0.85, abs=1e-3)
+    others = {(k, v) for t in cars for k, v in t.attrib.items() if k not in ("id", "tau")}
+    assert len(others) == len(cars[0].attrib) - 2  # identical but for id and tau
 
 
 def test_onramp_vehicles_cut_in():

@@ -4,6 +4,7 @@ flags, and the writing of a study's outputs."""
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
 import yaml
 
@@ -16,6 +17,8 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.truth.distraction import TRAFFIC_DISTRACTION_RATE
+from acc_fusion.truth.sumo.config import SumoConfig
 
 
 def positive_int(text: str) -> int:
@@ -88,6 +91,62 @@ def add_sim_arguments(p: argparse.ArgumentParser, runs_help: str | None) -> None
     p.add_argument("--seed", type=seed, help="random seed (default 0)")
     if runs_help:
         p.add_argument("--runs", type=positive_int, help=runs_help)
+
+
+def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
+    """The SUMO traffic's flags of the commands that run it (``sumo``, ``tune``):
+    ``--penetration``, ``--hazard-rate``, ``--inattentive``."""
+    p.add_argument(
+        "--penetration", type=float, default=1.0, help="fraction of equipped vehicles (default 1)"
+    )
+    p.add_argument(
+        "--hazard-rate",
+        type=float,
+        default=2.0,
+        help="injected emergency brakings per vehicle-hour (default 2)",
+    )
+    p.add_argument(
+        "--inattentive",
+        type=float,
+        default=0.2,
+        help="fraction of equipped drivers who react late (default 0.2)",
+    )
+    p.add_argument(
+        "--distraction",
+        type=float,
+        metavar="RATE",
+        help="eyes-off-road episodes per driving hour of each equipped driver (default "
+        f"{TRAFFIC_DISTRACTION_RATE:g}; 0: none; driver.distraction.* for the durations)",
+    )
+
+
+def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
+    """The :class:`SumoConfig` of the ``.sumocfg`` at ``path`` with the flags of
+    :func:`add_traffic_arguments` and ``--end``; ``fields`` set the rest."""
+    return SumoConfig(
+        sumocfg=str(path),
+        end=args.end,
+        penetration=args.penetration,
+        hazard_rate=args.hazard_rate,
+        inattentive=args.inattentive,
+        **fields,
+    )
+
+
+def traffic_sim_config(args: argparse.Namespace) -> SimConfig:
+    """:func:`sim_config` of a traffic command: one run, the drivers distracted at
+    ``--distraction`` (else the config's ``driver.distraction.rate`` if given, else
+    :data:`~acc_fusion.truth.distraction.TRAFFIC_DISTRACTION_RATE`), braking for a warning
+    only when truth says they must (``driver.brakes_only_for_threats``)."""
+    cfg = sim_config(args, runs=1)
+    given = config_data(args)[0].get("driver", {})
+    driver = cfg.driver
+    if args.distraction is not None or "rate" not in given.get("distraction", {}):
+        rate = TRAFFIC_DISTRACTION_RATE if args.distraction is None else args.distraction
+        driver = replace(driver, distraction=replace(driver.distraction, rate=rate))
+    if "brakes_only_for_threats" not in given:
+        driver = replace(driver, brakes_only_for_threats=True)
+    return replace(cfg, driver=driver)
 
 
 def config_data(args: argparse.Namespace) -> tuple[dict, str]:

@@ -5,6 +5,7 @@ runs: false alarms, misses, lead time; then collisions with FCW on and off.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
@@ -27,6 +28,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "federated alerts on and off, closed loop, on the same seeds.",
     )
     add_sim_arguments(p, "Monte Carlo runs (default 200)")
+    p.add_argument(
+        "--distraction",
+        type=float,
+        metavar="RATE",
+        help="a human driver in the closed loops: he brakes by himself for a crash-relevant "
+        "situation when his eyes are on the road, and looks away RATE times per hour "
+        "(default: a driver who never brakes by himself)",
+    )
+    p.add_argument(
+        "--all-drives",
+        action="store_true",
+        help="one closed loop with warnings on per method (radar, infrared, centralized, "
+        "federated driving the alert), to compare the crashes each avoids",
+    )
     p.add_argument("--out", metavar="DIR", help="also write compare.csv/.png/.json here")
     return p
 
@@ -34,10 +49,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
+    if args.distraction is not None:
+        distraction = replace(cfg.driver.distraction, rate=args.distraction)
+        cfg = replace(cfg, driver=replace(cfg.driver, distraction=distraction, sees_threats=True))
     out = output_dir(args.out) if args.out else None
-    comparison = compare(cfg, progress=True)
+    comparison = compare(cfg, progress=True, drives=cfg.methods if args.all_drives else ())
     table, classes = comparison.table(), comparison.classes()
     print(table.format() + "\n\n" + classes.format())
+    print("\n" + comparison.benefit_table().format())
     if out is not None:
         write_csv_atomic(out / "compare.csv", table.columns, table.rows)
         write_csv_atomic(out / "compare_classes.csv", classes.columns, classes.rows)
@@ -54,6 +73,8 @@ def run(args: argparse.Namespace) -> int:
             {
                 "config": {"scenario": cfg.scenario, "runs": cfg.runs, "seed": cfg.seed},
                 "collisions": comparison.collisions,
+                "benefit": comparison.benefits[comparison.collisions["drive"]].as_dict(),
+                "benefit_by_method": {m: b.as_dict() for m, b in comparison.benefits.items()},
                 "methods": {m: s.as_dict() for m, s in comparison.result.summaries.items()},
             },
         )

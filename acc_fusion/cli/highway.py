@@ -78,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     study = highway_study(cfg, sim, progress=True, render=render)
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())
+    print("\n" + study.benefits().format())
     if study.on.replay is not None:
         print(f"wrote {study.on.replay}")
     if out is not None:
@@ -92,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
             pairs=cfg.pairs,
             egos_per_episode=study.off.pairs,
             crashes={"fcw_off": study.off.crashes, "fcw_on": study.on.crashes},
+            benefit=study.benefit().as_dict(),
             replay=str(study.on.replay) if study.on.replay else None,
         )
     return 0

@@ -5,13 +5,19 @@ from __future__ import annotations
 
 import argparse
 
-from acc_fusion.cli.common import add_config_arguments, config_data, positive_float, positive_int
+from acc_fusion.cli.common import (
+    add_config_arguments,
+    add_traffic_arguments,
+    config_data,
+    positive_float,
+    positive_int,
+    traffic_config,
+)
 from acc_fusion.core.config import load_yaml
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import tradeoff_figure
 from acc_fusion.studies.tune import point_configs, record_sumo, tune, tune_table
-from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
@@ -40,6 +46,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="a swept setting and its values as a YAML list, e.g. "
         "'warning.params.decel_imminent=[4, 5, 6]' (with --set warning.model=...)",
     )
+    add_traffic_arguments(p)
     p.add_argument(
         "--trials", type=positive_int, default=7, help="trials per test manoeuvre (default 7)"
     )
@@ -68,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     out = output_dir(args.out) if args.out else None
     path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
     seed = int(base.get("seed", 0))
-    recording = record_sumo(SumoConfig(sumocfg=str(path), end=args.end, seed=seed), progress=True)
+    recording = record_sumo(traffic_config(args, path, seed=seed), progress=True)
     recording.name = path.name
     points = tune(configs, recording, trials=args.trials, progress=True)
     table = tune_table(points, recording)

@@ -151,11 +151,17 @@ def _owner(cls: type, name: str) -> str:
 
 
 def field_at(cls: type, path: str) -> FieldInfo:
-    """The field at dotted ``path`` in the tree of ``cls``; a :class:`ConfigError` naming the
-    closest level's allowed keys if there is none."""
+    """The field at dotted ``path`` in the tree of ``cls``, or the leaf field (a mapping such as
+    ``warning.params``) that ``path`` lies below; a :class:`ConfigError` naming the closest
+    level's allowed keys if there is none."""
     by_path = {f.path: f for f in fields(cls)}
     if path in by_path:
         return by_path[path]
+    parts = path.split(".")
+    for n in range(len(parts) - 1, 0, -1):
+        prefix = ".".join(parts[:n])
+        if prefix in by_path and not any(p.startswith(prefix + ".") for p in by_path):
+            return by_path[prefix]
     parent = path.rpartition(".")[0]
     keys = sorted(
         f.name for f in by_path.values() if f.path.rpartition(".")[0] == parent

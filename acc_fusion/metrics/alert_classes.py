@@ -17,7 +17,9 @@ situation while it braked.
 Thresholds (assumptions anchored in published figures, see :class:`AlertClassConfig`): a
 required deceleration of 3.4 m/s² (0.35 g) is the deceleration that about 90 % of drivers
 exceed when they must stop for an unexpected object (AASHTO, *A Policy on Geometric Design of
-Highways and Streets*, 2011, section 3.2.2, the basis of stopping sight distance): needing more
+Highways and Streets*, 2004, chapter 3, "Braking distance": "approximately 90 percent of all
+drivers decelerate at rates greater than 3.4 m/s²", the basis of stopping sight distance, kept
+in later editions): needing more
 than that is an emergency, not ordinary driving, and lies in the 0.3-0.4 g range of the
 "crash-imminent" braking that CAMP's alert-timing studies elicited (Kiefer et al., DOT HS
 808 964, 1999).  A TTC of 2.0 s is the shortest TTC at which NHTSA's FCW confirmation test
@@ -42,7 +44,7 @@ class AlertClassConfig:
 
     Attributes:
         decel_threshold: required deceleration from which the driver must act [m/s²]; 3.4
-            (0.35 g, AASHTO 2011).
+            (0.35 g, AASHTO 2004).
         ttc_threshold: time to collision without reaction (the lead keeping its deceleration)
             below which the driver must act [s]; 2.0 (NHTSA FCW confirmation test, 2013).
     """

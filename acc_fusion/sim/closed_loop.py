@@ -392,6 +392,12 @@ def simulate(
             f"{type(source).__name__} cannot apply brake requests, so it cannot run a closed "
             f"loop (drive = {cfg.drive!r}); use a source that does (e.g. SumoSource)"
         )
+    if cfg.drive is not None and cfg.driver.distraction.rate > 0:
+        if not getattr(source, "accepts_hold", False):
+            raise ConfigError(
+                f"{type(source).__name__} cannot hold a distracted driver's vehicle, so it "
+                "cannot run driver.distraction; use a source that can (e.g. SumoSource)"
+            )
     n = len(source.active)
     perception = Perception(cfg, n, s_perception)
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
@@ -452,8 +458,13 @@ def simulate(
             if driver is not None:  # the brake requests of the slots beyond the prefix: none
                 heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)
                 brake = np.zeros(n)
-                brake[: frame.n_pairs] = driver.step(heard, frame)
-            source.advance(brake)
+                brake[: frame.n_pairs] = driver.step(heard, frame, p.relevant)
+            if driver is not None and driver.distracts:
+                hold = np.zeros(n, dtype=bool)
+                hold[: frame.n_pairs] = driver.holding
+                source.advance(brake, hold)
+            else:
+                source.advance(brake)
             perception.advanced()
             steps += 1
             if source.done:

@@ -13,6 +13,7 @@ import numpy as np
 
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.table import Table
+from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.protocols import REQUIREMENTS
 from acc_fusion.metrics.summary import ALERT_CLASSES, FCWSummary
 from acc_fusion.sim.closed_loop import FirstWarning, SimConfig, SimResult, simulate
@@ -87,6 +88,45 @@ def class_table(title: str, summaries: dict[str, FCWSummary]) -> Table:
     return t
 
 
+#: The columns of :func:`benefit_table`.
+BENEFIT_COLUMNS = (
+    "drive", "pairs", "crashes_fcw_off", "crashes_fcw_on", "reduction",
+    "per_million_km_off", "per_million_km_on", "avoided", "mitigated", "introduced",
+    "impact_speed_off_mps", "impact_speed_on_mps",
+)  # fmt: skip
+
+
+def benefit_table(title: str, benefits: dict[str, Benefit], unit: str = "vehicles") -> Table:
+    """The crashes FCW avoided with each method driving the alert, paired by ``unit``
+    (vehicles or runs driven with FCW off and on, :mod:`acc_fusion.metrics.benefit`)."""
+    t = Table(title, BENEFIT_COLUMNS)
+    for drive, b in benefits.items():
+        t.rows.append(
+            {
+                "drive": drive,
+                "pairs": b.vehicles,
+                "crashes_fcw_off": b.crashes_off,
+                "crashes_fcw_on": b.crashes_on,
+                "reduction": f"{b.reduction:.3g} [{b.reduction_lo:.3g}, {b.reduction_hi:.3g}]",
+                "per_million_km_off": b.per_million_km_off,
+                "per_million_km_on": b.per_million_km_on,
+                "avoided": b.avoided,
+                "mitigated": b.mitigated,
+                "introduced": b.introduced,
+                "impact_speed_off_mps": b.impact_speed_off,
+                "impact_speed_on_mps": b.impact_speed_on,
+            }
+        )
+    first = next(iter(benefits.values()), None)
+    if first is not None:
+        t.notes.append(
+            f"pairs: {unit} driven with FCW off and on; reduction = 1 - crashes on / crashes "
+            f"off, {first.confidence:.0%} bootstrap interval over the {unit}; impact speed: "
+            "median closing speed at contact"
+        )
+    return t
+
+
 def on_off_table(
     title: str,
     off: dict[str, FCWSummary],
@@ -125,12 +165,27 @@ def compare_config(**overrides) -> SimConfig:
     return SimConfig(**{"scenario": "random", **overrides})
 
 
+def run_benefit(off: SimResult, on: SimResult) -> Benefit:
+    """The crashes of ``off`` (warnings off) that ``on`` (the same runs, warnings on)
+    avoided, paired by run (:func:`acc_fusion.metrics.benefit.paired_benefit`)."""
+
+    def crashes(res: SimResult) -> dict[int, float]:
+        return {int(i): float(res.collision_speed[i]) for i in np.flatnonzero(res.collided)}
+
+    def km(res: SimResult) -> float:
+        return next(iter(res.summaries.values())).km
+
+    return paired_benefit(range(off.collided.size), crashes(off), crashes(on), km(off), km(on))
+
+
 @dataclass
 class Comparison:
     """Open-loop metrics of every method plus collisions with warnings on and off."""
 
     result: SimResult
     collisions: dict[str, int]
+    benefits: dict[str, Benefit]
+    """Per method driving the alert: the crashes it avoided, paired by run."""
 
     def table(self):
         """The false-alarm / miss / lead-time table with 95 % intervals."""
@@ -161,17 +216,40 @@ class Comparison:
             self.result.summaries,
         )
 
+    def benefit_table(self) -> Table:
+        """:attr:`benefits` as a table."""
+        cfg = self.result.config
+        title = f"Crashes FCW avoids, {cfg.runs} runs of '{cfg.scenario}', same seeds"
+        t = benefit_table(title, self.benefits, unit="runs")
+        driver = self.result.config.driver
+        if driver.sees_threats:
+            t.notes.append(
+                "FCW off: the driver brakes by himself for a crash-relevant situation when "
+                f"his eyes are on the road ({driver.distraction.rate:g} eyes-off episodes/h)"
+            )
+        else:
+            t.notes.append("FCW off: the scripted ego's driver never brakes by himself")
+        return t
 
-def compare(config: SimConfig, *, progress: bool = False) -> Comparison:
+
+def compare(
+    config: SimConfig, *, progress: bool = False, drives: tuple[str, ...] = ()
+) -> Comparison:
     """Every method on the same runs (open loop), then collisions with the last method's
-    warnings on and off on the same seeds (closed loop)."""
+    warnings on and off on the same seeds (closed loop); ``drives`` adds a closed loop with
+    warnings on per further method, for :attr:`Comparison.benefits`."""
     result = simulate(replace(config, drive=None), progress=progress)
     drive = config.drive or config.methods[-1]
-    closed = replace(config, drive=drive, methods=(drive,))
-    on = simulate(closed, progress=progress)
-    off = simulate(closed, progress=progress, warnings_on=False)
+
+    def closed(method: str) -> SimConfig:
+        return replace(config, drive=method, methods=(method,))
+
+    off = simulate(closed(drive), progress=progress, warnings_on=False)
+    ons = {m: simulate(closed(m), progress=progress) for m in dict.fromkeys((drive, *drives))}
+    on = ons[drive]
     collisions = {"drive": drive, "on": int(on.collided.sum()), "off": int(off.collided.sum())}
-    return Comparison(result, {**collisions, "runs": config.runs})
+    benefits = {m: run_benefit(off, run) for m, run in ons.items()}
+    return Comparison(result, {**collisions, "runs": config.runs}, benefits)
 
 
 @dataclass

@@ -4,7 +4,7 @@ rendered replay of a run with the fused gap, safety distance and warning level d
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +14,11 @@ from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
 from acc_fusion.core.outputs import output_dir, temporary_beside, write_bytes_atomic
 from acc_fusion.core.table import Table
 from acc_fusion.core.validation import check_choice
+from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
-from acc_fusion.studies.compare import class_table, on_off_table
+from acc_fusion.studies.compare import benefit_table, class_table, on_off_table
+from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.highway.config import HighwayConfig, HighwayError
 from acc_fusion.truth.highway.source import HighwaySource
 from acc_fusion.warning.logic import WarningConfig
@@ -187,6 +189,8 @@ class HighwayRun:
         crashes: vehicles highway-env marked crashed (any, including rear-ended ones).
         collisions: egos that ran into their leader (the forward collisions).
         replay: the replay written, if any.
+        egos: every (episode, slot) that drove an ego.
+        impacts: the impact speed of each of ``egos`` that ran into its leader.
     """
 
     summaries: dict[str, FCWSummary]
@@ -195,6 +199,8 @@ class HighwayRun:
     crashes: int
     collisions: int
     replay: Path | None = None
+    egos: set[tuple[int, int]] = field(default_factory=set)
+    impacts: dict[tuple[int, int], float] = field(default_factory=dict)
 
 
 def run_highway(
@@ -209,16 +215,17 @@ def run_highway(
     egos' drivers brake.  ``replay``: also film the run (see :class:`Replay`, which draws the
     driving method, else the last one)."""
     with HighwaySource(config, render=replay is not None, progress=progress) as source:
-        hook = None
+        film = None
         if replay is not None:
-            hook = Replay(source, sim.drive or sim.methods[-1], sim.warning, replay)
+            film = Replay(source, sim.drive or sim.methods[-1], sim.warning, replay)
+        log = CrashLog(source, lambda: [(source.episode, i) for i in range(source.n_pairs)])
         try:
-            result = simulate(replace(sim, dt=source.dt), source=source, on_step=hook)
+            result = simulate(replace(sim, dt=source.dt), source=source, on_step=chain(film, log))
         except BaseException:
-            if hook is not None:
-                hook.discard()
+            if film is not None:
+                film.discard()
             raise
-        written = hook.save() if hook is not None else None
+        written = film.save() if film is not None else None
         return HighwayRun(
             result.summaries,
             source.n_pairs,
@@ -226,6 +233,8 @@ def run_highway(
             source.n_crashes,
             source.n_collisions,
             written,
+            log.units,
+            log.crashes,
         )
 
 
@@ -259,6 +268,22 @@ class HighwayStudy:
         """Per method (FCW off): alerts per 100 km by class, missed crash-relevant situations."""
         title = f"Alert classes (judged from truth), {self.config.env}"
         return class_table(title, self.off.summaries)
+
+    def benefit(self) -> Benefit:
+        """The forward collisions of the egos that FCW avoided, paired by (episode, ego),
+        with a bootstrap interval (:func:`acc_fusion.metrics.benefit.paired_benefit`)."""
+
+        def km(run: HighwayRun) -> float:
+            return next(iter(run.summaries.values())).km
+
+        off, on = self.off, self.on
+        return paired_benefit(off.egos | on.egos, off.impacts, on.impacts, km(off), km(on))
+
+    def benefits(self) -> Table:
+        """:meth:`benefit` as a table."""
+        drive = next(iter(self.on.summaries))
+        title = f"Crashes FCW avoids, {self.config.env}, egos, same episodes"
+        return benefit_table(title, {drive: self.benefit()}, unit="egos (episode, slot)")
 
 
 def highway_study(

@@ -1,26 +1,33 @@
-"""False-alarm rates in SUMO traffic: bundled networks, FCW on and off, SSM cross-check.
+"""False-alarm rates and the crashes FCW avoids in SUMO traffic: bundled networks, FCW on
+and off, SSM cross-check.
 
 :func:`sumo_study` runs one SUMO scenario twice, each in its own process (libsumo allows one
-simulation per process): open loop, where every method (radar, infrared, centralized,
-federated) watches every equipped vehicle and no driver hears an alert (FCW off), and closed
-loop, where the federated alerts make the equipped drivers brake (FCW on).  Both runs use
-the same seed, so the same vehicles, hazards and inattentive drivers.  The open-loop run also
-compares the oracle's true TTC with the minTTC of SUMO's SSM device, vehicle by vehicle.
+simulation per process): FCW off, where every method (radar, infrared, centralized,
+federated) watches every equipped vehicle and no driver hears an alert, and FCW on, where the
+federated alerts make the equipped drivers brake.  Both runs use the same seed, so the same
+vehicles, hazards, inattentive drivers and eyes-off-road episodes
+(:mod:`acc_fusion.truth.distraction`).  Without distraction the FCW-off run is open loop, SUMO
+running ahead in a child process; with it the drivers act in both runs (closed loop, deaf to
+warnings when FCW is off).  The FCW-off run also compares the oracle's true TTC with the
+minTTC of SUMO's SSM device, vehicle by vehicle.  :meth:`SumoStudy.benefit` pairs the two
+runs vehicle by vehicle (:mod:`acc_fusion.metrics.benefit`).
 """
 
 from __future__ import annotations
 
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from acc_fusion.core.table import Table
+from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
-from acc_fusion.studies.compare import class_table, on_off_table
+from acc_fusion.studies.compare import benefit_table, class_table, on_off_table
+from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
 from acc_fusion.truth.sumo.source import SumoSource
@@ -41,18 +48,6 @@ class _MinTTC:
                 self.min_ttc[vid] = min(self.min_ttc.get(vid, np.inf), float(ttc[k]))
 
 
-def _then(first, second):
-    """The ``on_step`` hook that calls ``first`` (if any), then ``second``."""
-    if first is None:
-        return second
-
-    def both(view: StepView) -> None:
-        first(view)
-        second(view)
-
-    return both
-
-
 @dataclass
 class SumoRun:
     """What one SUMO run returns from its worker process.
@@ -60,7 +55,8 @@ class SumoRun:
     ``collisions`` counts every collision SUMO reported (equipped or not); the collisions of
     equipped vehicles are in each summary.  ``error`` is SUMO's message when it failed
     mid-run (the summaries then cover the run up to the failure, and ``steps`` is 0);
-    ``steps`` counts the simulation steps of a completed run.
+    ``steps`` counts the simulation steps of a completed run.  ``vehicles``: the equipped
+    vehicles driven; ``crashes``: the impact speed of each that ran into its lead.
     """
 
     summaries: dict[str, FCWSummary]
@@ -70,26 +66,36 @@ class SumoRun:
     ssm_pairs: list[tuple[float, float]]
     error: str | None = None
     steps: int = 0
+    vehicles: set[str] = field(default_factory=set)
+    crashes: dict[str, float] = field(default_factory=dict)
 
 
-def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> SumoRun:
+def _run(
+    sumo_config, sim: SimConfig, progress: bool, cross_check: bool, warnings_on: bool = True
+) -> SumoRun:
     """One SUMO run (in a worker process).  In open loop SUMO runs in a child process ahead of
     the pipeline (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`); in ``sumo-gui``
     (``sumo_config.gui``) the vehicles are coloured by the warning level of the last method
-    of ``sim``."""
+    of ``sim``; with ``warnings_on`` false the drivers act but hear no warning."""
 
     config = replace(sumo_config, ssm=cross_check)
     background = sim.drive is None and not config.gui
     with BackgroundSumoSource(config) if background else SumoSource(config) as source:
-        hook = _MinTTC(source) if cross_check else None
+        crashes = CrashLog(source, lambda: source.vehicle_ids)
+        min_ttc = _MinTTC(source) if cross_check else None
+        hook = chain(min_ttc, crashes)
         if sumo_config.gui:
             method = sim.methods[-1]
-            hook = _then(hook, lambda view: source.set_warning_colors(view.levels[method]))
+            hook = chain(hook, lambda view: source.set_warning_colors(view.levels[method]))
         metrics_so_far: dict[str, FCWSummary] = {}
         error, steps = None, 0
         try:
             result = simulate(
-                replace(sim, dt=source.dt), source=source, progress=progress, on_step=hook
+                replace(sim, dt=source.dt),
+                source=source,
+                progress=progress,
+                on_step=hook,
+                warnings_on=warnings_on,
             )
             metrics_so_far, steps = result.summaries, result.steps
         except SumoError as exc:  # SUMO failed mid-run: report it with what was measured
@@ -97,8 +103,8 @@ def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> Sumo
             metrics_so_far = getattr(exc, "summaries", {})
         pairs = []
         if cross_check and error is None:
-            ssm = source.ssm_min_ttc()
-            pairs = [(hook.min_ttc[v], ssm[v]) for v in hook.min_ttc if v in ssm]
+            ssm, seen = source.ssm_min_ttc(), min_ttc.min_ttc
+            pairs = [(seen[v], ssm[v]) for v in seen if v in ssm]
         return SumoRun(
             metrics_so_far,
             int(source.n_collisions),
@@ -107,6 +113,8 @@ def _run(sumo_config, sim: SimConfig, progress: bool, cross_check: bool) -> Sumo
             pairs,
             error,
             steps,
+            crashes.units,
+            crashes.crashes,
         )
 
 
@@ -117,6 +125,8 @@ class SumoStudy:
     sumocfg: Path
     off: SumoRun
     on: SumoRun
+    also: dict[str, SumoRun] = field(default_factory=dict)
+    """FCW-on runs driven by further methods (``drives`` of :func:`sumo_study`)."""
 
     def ssm_agreement(self) -> dict[str, float]:
         """Median relative difference between the oracle's and SSM's minimum TTC."""
@@ -140,27 +150,79 @@ class SumoStudy:
             f"oracle TTC vs SUMO SSM minTTC: {agree['vehicles']} vehicles, median relative "
             f"difference {agree['median_rel_diff']:.3g}"
         )
-        for label, run in (("FCW off", off), ("FCW on", on)):
-            if run.error:
-                t.notes.append(f"SUMO failed during the {label} run: {run.error}")
+        for label, error in self.errors().items():
+            t.notes.append(f"SUMO failed during the {label} run: {error}")
         return t
+
+    def errors(self) -> dict[str, str]:
+        """SUMO's message of every run that failed, by run (``FCW off``, ``FCW on``, ...)."""
+        runs = {"FCW off": self.off, "FCW on": self.on}
+        runs |= {f"FCW on ({m})": run for m, run in self.also.items()}
+        return {label: run.error for label, run in runs.items() if run.error}
 
     def classes(self) -> Table:
         """Per method (FCW off): alerts per 100 km by class, missed crash-relevant situations."""
         title = f"Alert classes (judged from truth), {self.sumocfg.name}"
         return class_table(title, self.off.summaries)
 
+    def benefits(self) -> Table:
+        """:meth:`benefit` of every FCW-on run, one row per method that drove it."""
+        title = f"Crashes FCW avoids, {self.sumocfg.name}, equipped vehicles, same seed"
+        return benefit_table(title, self.benefit_by_method())
 
-def sumo_study(sumo_config, sim: SimConfig, *, progress: bool = False) -> SumoStudy:
+    def benefit_by_method(self) -> dict[str, Benefit]:
+        """:meth:`benefit` of every FCW-on run, by the method that drove it."""
+        runs = {self._drive(self.on): self.on, **self.also}
+        return {m: self.benefit(run) for m, run in runs.items()}
+
+    def benefit(self, on: SumoRun | None = None, *, seed: int = 0) -> Benefit:
+        """The crashes of equipped vehicles that FCW (the run ``on``, default :attr:`on`)
+        avoided, paired by vehicle, with a bootstrap interval
+        (:func:`acc_fusion.metrics.benefit.paired_benefit`)."""
+        on = self.on if on is None else on
+
+        def km(run: SumoRun) -> float:
+            return next(iter(run.summaries.values())).km if run.summaries else 0.0
+
+        return paired_benefit(
+            self.off.vehicles | on.vehicles,
+            self.off.crashes,
+            on.crashes,
+            km(self.off),
+            km(on),
+            seed=seed,
+        )
+
+    @staticmethod
+    def _drive(run: SumoRun) -> str:
+        return next(iter(run.summaries), "fcw")
+
+
+def sumo_study(
+    sumo_config, sim: SimConfig, *, progress: bool = False, drives: tuple[str, ...] = ()
+) -> SumoStudy:
     """Run ``sumo_config`` with FCW off (every method watching) and on (federated alerts),
-    each in its own process, in parallel.  With ``gui``, the FCW-on run is the one shown in
-    ``sumo-gui`` (vehicles coloured by its warning level); the FCW-off run stays headless."""
+    each in its own process, in parallel; ``drives`` adds an FCW-on run per further method
+    (:attr:`SumoStudy.also`).  With ``gui``, the FCW-on run is the one shown in ``sumo-gui``
+    (vehicles coloured by its warning level); the other runs stay headless."""
     drive = sim.drive or sim.methods[-1]
+    distracted = sim.driver.distraction.rate > 0
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
         headless = replace(sumo_config, gui=False)
-        off = pool.submit(_run, headless, replace(sim, drive=None), progress, True)
-        on = pool.submit(
-            _run, sumo_config, replace(sim, drive=drive, methods=(drive,)), False, False
+        off_sim = replace(sim, drive=drive if distracted else None)
+        off = pool.submit(_run, headless, off_sim, progress, True, False)
+
+        def fcw_on(method: str, config):
+            return pool.submit(
+                _run, config, replace(sim, drive=method, methods=(method,)), False, False
+            )
+
+        on = fcw_on(drive, sumo_config)
+        also = {m: fcw_on(m, headless) for m in drives if m != drive}
+        return SumoStudy(
+            Path(sumo_config.sumocfg),
+            off.result(),
+            on.result(),
+            {m: run.result() for m, run in also.items()},
         )
-        return SumoStudy(Path(sumo_config.sumocfg), off.result(), on.result())

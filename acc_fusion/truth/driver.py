@@ -12,6 +12,21 @@ Each of N drivers (one per run) watches the warning level of his run:
    has stopped; ``warning_ended`` as ``not_closing`` but only once the warning has also ended;
    ``stopped`` only when the ego has stopped.
 4. A later warning onset starts a new reaction.
+5. With distraction (:mod:`acc_fusion.truth.distraction`) he looks away now and then, when
+   idle: while his eyes are off the road, and from the end of the episode until he has
+   reacted and released, he is *holding* (:attr:`Driver.holding`): the truth source keeps
+   his vehicle's speed and ignores its car-following model, which would see the lead for him.
+   The end of an episode is an onset like a warning's (he looks, then after his reaction
+   time brakes if he is closing on his lead); a warning during an episode ends it by the
+   same route, earlier.  Braking after an episode is his own, at :math:`d`, with no help
+   from the source's car-following model.
+6. With ``sees_threats`` (for egos without a car-following model of their own) the onset of
+   a crash-relevant situation in truth, seen with his eyes on the road, is an onset too.
+7. With ``brakes_only_for_threats``, when his reaction time has passed he looks at the road
+   and brakes only if the situation is crash-relevant in truth; otherwise he leaves it to his
+   car-following model (a nuisance alert costs no hard braking).  Lee et al. (2002) found that
+   a warning hastens the release of the accelerator, not braking itself; that a driver
+   ignores an alert he sees no reason for is our assumption.
 
 Per-driver draws (at construction, from ``numpy.random.default_rng(seed)``; same seed, same
 drivers):
@@ -61,6 +76,7 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.units import TIME_TOL, G
 from acc_fusion.core.validation import check_array, check_choice, check_interval, check_range
+from acc_fusion.truth.distraction import DistractionConfig, EpisodeDraws
 from acc_fusion.truth.frame import TruthFrame
 
 #: The release rules of :class:`DriverConfig`.
@@ -80,6 +96,13 @@ class DriverConfig:
         deceleration_range: ``(low, high)`` clip of the deceleration [m/s²]; (0.3 g, 0.9 g).
         react_to_level: lowest warning level the driver reacts to; 1 (caution).
         release: when he stops braking, one of :data:`RELEASE_RULES`; ``"not_closing"``.
+        distraction: his eyes-off-road episodes; none by default.
+        sees_threats: whether, eyes on the road, he brakes by himself at the onset of a
+            crash-relevant situation (truth's, :mod:`acc_fusion.metrics.alert_classes`) after
+            his reaction time; False.  For truth sources whose ego has no car-following model
+            of its own (the scripted manoeuvres); SUMO's and highway-env's vehicles have one.
+        brakes_only_for_threats: whether, his reaction time passed, he brakes only in a
+            crash-relevant situation (else he leaves it to his car-following model); False.
     """
 
     reaction_time_median: float = 1.1
@@ -90,6 +113,9 @@ class DriverConfig:
     deceleration_range: tuple[float, float] = (0.3 * G, 0.9 * G)
     react_to_level: int = 1
     release: str = "not_closing"
+    distraction: DistractionConfig = DistractionConfig()
+    sees_threats: bool = False
+    brakes_only_for_threats: bool = False
 
     def __post_init__(self) -> None:
         checked = {
@@ -134,8 +160,12 @@ class Driver(PairState):
     """
 
     _PAIR_AXES = dict.fromkeys(
-        ("reaction_time", "deceleration", "_onset", "_braking", "_warned"), 0
-    )
+        (
+            "reaction_time", "deceleration", "_onset", "_braking", "_alarmed",
+            "_eyes_back", "_next_episode", "_episodes", "_holding", "_slot",
+        ),
+        0,
+    )  # fmt: skip
 
     def __init__(
         self,
@@ -147,7 +177,8 @@ class Driver(PairState):
             raise ConfigError(f"n_runs must be an integer >= 1, got {n_runs!r}")
         self.n_runs = int(n_runs)
         self.config = config = DriverConfig() if config is None else config
-        z = np.random.default_rng(seed).standard_normal((2, self.n_runs))
+        rng = np.random.default_rng(seed)
+        z = rng.standard_normal((2, self.n_runs))
         self.reaction_time = np.clip(
             config.reaction_time_median * np.exp(config.reaction_time_log_sd * z[0]),
             *config.reaction_time_range,
@@ -157,29 +188,63 @@ class Driver(PairState):
         )
         self._onset = np.full(self.n_runs, np.nan)
         self._braking = np.zeros(self.n_runs, dtype=bool)
-        self._warned = np.zeros(self.n_runs, dtype=bool)
+        self._alarmed = np.zeros(self.n_runs, dtype=bool)
+        distracts = config.distraction.rate > 0
+        # A spawned key leaves the draws above as they were and is the same for any n_runs.
+        key = rng.spawn(1)[0].integers(2**63)
+        self._draws = EpisodeDraws(config.distraction, key) if distracts else None
+        self._eyes_back = np.full(self.n_runs, np.nan)  # end of the episode, NaN: eyes on
+        self._next_episode = np.full(self.n_runs, np.nan)  # NaN: not drawn yet
+        self._episodes = np.zeros(self.n_runs, dtype=np.int64)
+        self._holding = np.zeros(self.n_runs, dtype=bool)
+        self._slot = np.arange(self.n_runs)
 
     @property
     def braking(self) -> np.ndarray:
         """``(N,)`` drivers braking now."""
         return self._braking.copy()
 
+    @property
+    def distracts(self) -> bool:
+        """Whether the drivers have eyes-off-road episodes (the source must hold vehicles)."""
+        return self._draws is not None
+
+    @property
+    def holding(self) -> np.ndarray:
+        """``(N,)`` drivers outside their car-following model: eyes off the road, or reacting
+        to and braking after an episode (the source keeps their speed, minus their brake)."""
+        return self._holding.copy()
+
+    @property
+    def eyes_off(self) -> np.ndarray:
+        """``(N,)`` drivers looking away from the road now."""
+        return ~np.isnan(self._eyes_back)
+
     def reset(self, mask: np.ndarray) -> None:
         """Forget the warning and braking state of the runs in ``mask`` (a new driver's
         vehicle in that slot keeps the slot's reaction time and deceleration draws)."""
         self._onset[mask] = np.nan
         self._braking[mask] = False
-        self._warned[mask] = False
+        self._alarmed[mask] = False
+        self._eyes_back[mask] = np.nan
+        self._holding[mask] = False
 
     def _resized(self, m: int) -> None:
         self.n_runs = m
 
-    def step(self, warning: np.ndarray, frame: TruthFrame) -> np.ndarray:
+    def step(
+        self, warning: np.ndarray, frame: TruthFrame, threat: np.ndarray | None = None
+    ) -> np.ndarray:
         """The brake request of every driver for the step starting at ``frame.t``.
 
         Args:
             warning: ``(N,)`` warning level of each run (0 = none; ``bool`` is level 1).
             frame: what the drivers see: the truth at this step (time, ego speed, range-rate).
+            threat: ``(N,)`` bool, the runs in a crash-relevant situation in truth; with
+                :attr:`DriverConfig.sees_threats`, a driver whose eyes are on the road reacts
+                to its onset as to a warning's; with
+                :attr:`DriverConfig.brakes_only_for_threats`, a driver whose reaction is due
+                brakes only where it is set.
 
         Returns:
             ``(N,)`` requested deceleration [m/s², >= 0]; 0 where the driver does not brake.
@@ -189,14 +254,46 @@ class Driver(PairState):
             raise InputError(f"frame must hold {self.n_runs} runs, got {frame.n_pairs}")
         t = frame.t
         warned = level >= self.config.react_to_level
+        alarmed = warned
+        if self.config.sees_threats and threat is not None:
+            alarmed = warned | (np.asarray(threat, dtype=bool) & ~self.eyes_off)
         idle = np.isnan(self._onset) & ~self._braking
-        self._onset[warned & ~self._warned & idle] = t
-        self._warned = warned
+        self._onset[alarmed & ~self._alarmed & idle] = t
+        self._alarmed = alarmed
+        if self.distracts:
+            ended = t >= self._eyes_back - TIME_TOL  # False where eyes on (NaN)
+            self._look_back(ended, t)
+            self._onset[ended & np.isnan(self._onset) & ~self._braking] = t
         due = t >= self._onset + self.reaction_time - TIME_TOL  # False where no onset (NaN)
-        self._braking |= due
+        if self.config.brakes_only_for_threats and threat is not None:
+            self._braking |= due & np.asarray(threat, dtype=bool)
+        else:
+            self._braking |= due
         self._onset[due] = np.nan
         self._braking &= ~self._released(warned, frame)
+        if self.distracts:
+            self._look_back(due & self.eyes_off, t)  # a warning cut the episode short
+            self._look_away(t)
         return np.where(self._braking, self.deceleration, 0.0)
+
+    def _look_away(self, t: float) -> None:
+        """Start the episodes that are due among the idle drivers; keep :attr:`holding`."""
+        undrawn = np.flatnonzero(np.isnan(self._next_episode))
+        self._next_episode[undrawn] = t + self._draws.gap(
+            self._slot[undrawn], self._episodes[undrawn]
+        )
+        idle = np.isnan(self._onset) & ~self._braking & ~self.eyes_off
+        start = np.flatnonzero(idle & (t >= self._next_episode - TIME_TOL))
+        self._eyes_back[start] = t + self._draws.duration(self._slot[start], self._episodes[start])
+        self._episodes[start] += 1
+        self._holding[start] = True
+        self._holding &= self.eyes_off | ~np.isnan(self._onset) | self._braking
+
+    def _look_back(self, mask: np.ndarray, t: float) -> None:
+        """End the episodes of ``mask`` now; draw when the next one starts."""
+        idx = np.flatnonzero(mask)
+        self._eyes_back[idx] = np.nan
+        self._next_episode[idx] = t + self._draws.gap(self._slot[idx], self._episodes[idx])
 
     def _released(self, warned: np.ndarray, frame: TruthFrame) -> np.ndarray:
         """Drivers whose release condition holds now."""

@@ -28,7 +28,8 @@ Kinematics (exact)
     speeds are never negative.  A segment starts at the first step boundary at or after its
     time (default event times are multiples of common steps).  The ego follows its scripted
     speed (constant; in ``following`` and ``stop_and_go`` the IDM, see :class:`IDMParameters`)
-    unless the run's driver requests a deceleration: then it brakes with that deceleration.
+    unless the run's driver requests a deceleration (it brakes with it) or looks away (it keeps
+    its speed).
     Once a driver has braked, a scripted constant-speed ego no longer returns to its script:
     it keeps its speed when the driver releases (the IDM ego resumes following).
 
@@ -86,15 +87,8 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_array, check_choice, check_range
 from acc_fusion.truth.frame import TruthFrame
-from acc_fusion.truth.manoeuvre_params import (
-    IDM,
-    OVERLAP_OFFSET,
-    SLOTS,
-    VEHICLE_LENGTH,
-)
+from acc_fusion.truth.manoeuvre_params import IDM, OVERLAP_OFFSET, SLOTS, VEHICLE_LENGTH
 from acc_fusion.truth.manoeuvres import SCENARIOS, _merge, _ramp, _ranges_table
-
-# --------------------------------------------------------------------------- the source
 
 
 @dataclass(frozen=True)
@@ -164,6 +158,9 @@ class ScenarioSource:
     restarted.
     """
 
+    #: It keeps a distracted driver's speed (:meth:`advance`'s ``hold``).
+    accepts_hold = True
+
     def __init__(
         self,
         name: str,
@@ -205,6 +202,7 @@ class ScenarioSource:
         self._x = plan.position.astype(float)
         self._v = plan.speed.astype(float)
         self._brake = np.zeros(self.n_runs)
+        self._hold = np.zeros(self.n_runs, dtype=bool)
         self._braked = np.zeros(self.n_runs, dtype=bool)
         self._end_time = np.full(self.n_runs, np.inf)
         self._collided = np.zeros(self.n_runs, dtype=bool)
@@ -315,19 +313,25 @@ class ScenarioSource:
             self._frame = self.state().frame()
         return self._frame
 
-    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+    def advance(
+        self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None
+    ) -> TruthFrame:
         """Move every active run one step and return the new frame.
 
         Args:
             ego_brake: ``(N,)`` deceleration requested by each run's driver [m/s², >= 0] for
                 this step; 0 or NaN (or ``None`` for all) means no request: the scripted ego.
+            hold: ``(N,)`` bool, the runs whose driver looks away (``Driver.holding``): without
+                a brake request the ego keeps its speed instead of its script or IDM.
         """
-        if ego_brake is None:
-            self._brake = np.zeros(self.n_runs)
-        else:
-            brake = check_array("ego_brake", ego_brake, (self.n_runs,), finite=False)
-            brake = np.where(np.isnan(brake), 0.0, brake)
-            self._brake = check_array("ego_brake", brake, nonnegative=True)
+        n = self.n_runs
+        brake = check_array(
+            "ego_brake", np.zeros(n) if ego_brake is None else ego_brake, (n,), finite=False
+        )
+        self._brake = check_array(
+            "ego_brake", np.where(np.isnan(brake), 0.0, brake), nonnegative=True
+        )
+        self._hold = check_array("hold", np.zeros(n) if hold is None else hold, (n,)).astype(bool)
         active = self.active
         ego_a, target, rate = self._controls()
         ego_x, ego_v = _ramp(
@@ -434,7 +438,8 @@ class ScenarioSource:
         slot, has, gap, _ = self._leader()
         lead_v = self._v[self._rows, slot]
         idm = IDM.accel(self._ego_v, plan.desired_speed, plan.time_headway, gap, lead_v, has)
-        ego_a = np.where(self._brake > 0, -self._brake, np.where(plan.idm, idm, 0.0))
+        own = np.where(plan.idm & ~self._hold, idm, 0.0)
+        ego_a = np.where(self._brake > 0, -self._brake, own)
         return ego_a, target, rate
 
     def _settle(self, active: np.ndarray) -> None:

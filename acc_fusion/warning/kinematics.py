@@ -56,8 +56,7 @@ def required_deceleration(gap, v_ego, v_lead, a_lead) -> np.ndarray:
         \quad (v_c > 0), \qquad 0 \quad (v_c \le 0,\ a_l \ge 0).
 
     Source: the required-deceleration parameter of CAMP's crash-alert timing work (Kiefer
-    et al. 1999, DOT HS 808 964, and Kiefer et al., *Accident Analysis & Prevention* 37:295,
-    2005), with no reaction delay.
+    et al. 1999, DOT HS 808 964), with no reaction delay.
 
     >>> float(required_deceleration(50.0, 20.0, 0.0, 0.0)[0])  # stopped lead: v²/(2g)
     4.0

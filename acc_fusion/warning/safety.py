@@ -102,7 +102,18 @@ def ttc(v_ego, v_rel, a_lead=0.0, params: TTCParams | None = None) -> Distances:
     .. math:: d_L = T_L \max(v_c, 0) + d_0
 
     With :math:`d_0 = 0`, ``gap < d_L`` is exactly :math:`\mathrm{TTC} = g / v_c < T_L`;
-    nothing is raised while the gap opens.  Sources: see :class:`TTCParams`.
+    nothing is raised while the gap opens.  With ``lead_braking`` the lead (deceleration
+    :math:`b = \max(-a_l, 0)`) keeps braking until it stops, as NHTSA's confirmation test
+    (2013) judges its decelerating-lead test:
+
+    .. math::
+
+        d_L = \begin{cases} \max(v_c T_L + \tfrac12 b T_L^2, 0) + d_0 & v_l \ge b T_L \\
+        \max(v T_L - v_l^2 / (2b), 0) + d_0 & \text{otherwise,} \end{cases}
+
+    so that ``gap < d_L`` is exactly
+    :func:`~acc_fusion.warning.kinematics.time_to_collision_braking_lead` :math:`< T_L`.
+    Sources: see :class:`TTCParams`.
     """
     return _distances("ttc", v_ego, v_rel, a_lead, params)
 

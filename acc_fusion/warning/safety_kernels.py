@@ -20,12 +20,27 @@ def _time_headway(v, vl, vc, b, c):  # pragma: no cover - compiled
     return d0 + headway_caution * v, d0 + headway_imminent * v
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _ttc(v, vl, vc, b, c):  # pragma: no cover - compiled
     """:func:`ttc` of one pair, before :func:`_levels` (``c``: its ``_constants``)."""
-    ttc_caution, ttc_imminent, d0 = c[:3]
+    ttc_caution, ttc_imminent, d0, lead_braking = c[:4]
+    if lead_braking:
+        return (
+            _braking_gap(v, vl, vc, b, ttc_caution) + d0,
+            _braking_gap(v, vl, vc, b, ttc_imminent) + d0,
+        )
     closing = _maximum(vc, 0.0)
     return ttc_caution * closing + d0, ttc_imminent * closing + d0
+
+
+@njit(cache=True, error_model="numpy")
+def _braking_gap(v, vl, vc, b, t):  # pragma: no cover - compiled
+    """The gap [m] the follower, keeping ``v``, closes within ``t`` on a lead braking at
+    ``b`` (>= 0) until it stops: :math:`v_c t + b t^2/2` while the lead moves, else
+    :math:`v t - v_l^2/(2b)` (at least 0)."""
+    if vl >= b * t:
+        return _maximum(vc * t + 0.5 * b * t * t, 0.0)
+    return _maximum(v * t - vl * vl / (2.0 * b), 0.0)
 
 
 @njit(cache=True, error_model="numpy")

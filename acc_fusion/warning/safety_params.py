@@ -49,11 +49,15 @@ class TTCParams:
             avoidance systems by van der Horst & Hogema, "Time-to-collision and collision
             avoidance systems", Proc. 6th ICTCT workshop, 1994).
         d0: distance added to both thresholds [m] (default 0: the pure TTC criterion).
+        lead_braking: judge the TTC with the lead keeping its deceleration until it stops, as
+            NHTSA's confirmation test (2013) judges its decelerating-lead test (default False:
+            the constant-speed TTC :math:`g/v_c`).
     """
 
     ttc_caution: float = 2.4
     ttc_imminent: float = 1.5
     d0: float = 0.0
+    lead_braking: bool = False
 
     def __post_init__(self) -> None:
         _check_times("ttc", self, "ttc_caution", "ttc_imminent")
@@ -61,7 +65,7 @@ class TTCParams:
         _check_order("ttc", self, "ttc_imminent", "ttc_caution")
 
     def _constants(self) -> tuple[float, ...]:
-        return self.ttc_caution, self.ttc_imminent, self.d0
+        return self.ttc_caution, self.ttc_imminent, self.d0, float(self.lead_braking)
 
 
 @dataclass(frozen=True)
@@ -260,7 +264,7 @@ class RequiredDecelerationParams:
         decel_caution: required-deceleration threshold of the caution level [m/s²]
             (default 3.4 ≈ 0.35 g: the deceleration most drivers exceed when stopping for an
             unexpected object, AASHTO, *A Policy on Geometric Design of Highways and Streets*,
-            stopping sight distance, 2011).
+            stopping sight distance, 2004).
         decel_imminent: threshold of the imminent level [m/s²] (default 6.0 ≈ 0.6 g: the
             ego's hard braking in the Mazda (α1) and PATH (a) algorithms).
         d0: margin left at the closest approach [m] (default 2.5: SUMO's default ``minGap``).

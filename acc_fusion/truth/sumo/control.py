@@ -7,7 +7,10 @@ Closed loop
     driver [m/s²]: the vehicle is commanded :math:`v_{k+1} = \max(v_k - a\,\Delta t, 0)` through
     ``setSpeed`` with SUMO's deceleration limit lifted (speed-mode bit 2 cleared; SUMO still never
     lets it drive faster than its safe speed), and handed back (``setSpeed(-1)`` and the original
-    speed mode) at the first step without a request.
+    speed mode) at the first step without a request.  A *held* slot (a distracted driver,
+    :attr:`acc_fusion.truth.driver.Driver.holding`) is commanded the same speed law, with a
+    request of 0 keeping its speed, and its safe speed ignored too (bit 0 cleared): SUMO's
+    car-following model, which would see the lead for the driver, is out of the loop.
 
 Threats (so that false-alarm and miss rates mean something)
     - *Lead-vehicle emergency braking*: events at ``hazard_rate`` per vehicle-hour (Poisson,
@@ -44,6 +47,8 @@ from acc_fusion.core.validation import check_range
 
 #: SUMO speed-mode bit 2: "regard maximum deceleration" (cleared while we command braking).
 SPEED_MODE_MAX_DECEL = 0b100
+#: SUMO speed-mode bit 0: "regard safe speed" (cleared while a distracted driver is held).
+SPEED_MODE_SAFE_SPEED = 0b1
 
 
 @dataclass
@@ -106,8 +111,9 @@ class SumoControls:
         self._guard(paint)
         self._shown_level[changed] = lv[changed]
 
-    def _control(self, brake: np.ndarray | None) -> None:
-        """Start hazards, then command the braking vehicles and hand back the others."""
+    def _control(self, brake: np.ndarray | None, hold: np.ndarray | None = None) -> None:
+        """Start hazards, then command the braking and held vehicles and hand back the
+        others."""
         cfg, dt, veh = self.config, self.dt, self._api.vehicle
         if cfg.hazard_rate > 0 and self._info:
             count = self._rng_hazard.poisson(cfg.hazard_rate * len(self._info) * dt / 3600.0)
@@ -121,24 +127,33 @@ class SumoControls:
                 self._end_hazard(vid)
             else:
                 targets[vid] = max(self._speed(vid) - hz.decel * dt, 0.0)
+        held: set[str] = set()
         if brake is not None:
             speed = self._frame.ego_speed
-            for slot in np.flatnonzero((brake > 0) & self._active):
+            commanded = brake > 0 if hold is None else (brake > 0) | hold
+            for slot in np.flatnonzero(commanded & self._active):
                 vid = self._slot_vid[slot]
                 target = max(float(speed[slot]) - float(brake[slot]) * dt, 0.0)
                 targets[vid] = min(targets.get(vid, math.inf), target)
+                if hold is not None and hold[slot]:
+                    held.add(vid)
         for vid in [v for v in self._ctrl if v not in targets]:
             self._release(vid)
         for vid, target in targets.items():
             if vid not in self._ctrl:
-                mode = int(veh.getSpeedMode(vid))
-                self._ctrl[vid] = mode
-                veh.setSpeedMode(vid, mode & ~SPEED_MODE_MAX_DECEL)
+                self._ctrl[vid] = int(veh.getSpeedMode(vid))
+            mode = self._ctrl[vid] & ~SPEED_MODE_MAX_DECEL
+            if vid in held:
+                mode &= ~SPEED_MODE_SAFE_SPEED
+            if self._mode.get(vid) != mode:
+                veh.setSpeedMode(vid, mode)
+                self._mode[vid] = mode
             veh.setSpeed(vid, target)
 
     def _release(self, vid: str) -> None:
         """Hand a vehicle back to SUMO: no commanded speed, its original speed mode."""
         mode = self._ctrl.pop(vid, None)
+        self._mode.pop(vid, None)
         if mode is not None:
             veh = self._api.vehicle
             veh.setSpeed(vid, -1.0)

@@ -49,6 +49,7 @@ class SumoSlots:
             self._code.pop(vid, None)
             self._teleporting.discard(vid)
             self._ctrl.pop(vid, None)
+            self._mode.pop(vid, None)
             self._hazards.pop(vid, None)
         else:  # teleporting: it comes back under SUMO's control
             self._teleporting.add(vid)

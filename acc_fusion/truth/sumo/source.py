@@ -123,6 +123,9 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
                 frame = src.advance(brake)
     """
 
+    #: It keeps a distracted driver's speed (:meth:`advance`'s ``hold``).
+    accepts_hold = True
+
     def __init__(self, config: SumoConfig) -> None:
         global _OPEN
         if not isinstance(config, SumoConfig):
@@ -225,6 +228,7 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
         self._ssm_slot = np.full(n, np.inf)
         self._ssm_min: dict[str, float] = {}
         self._ctrl: dict[str, int] = {}  # vehicles under our speed control -> original mode
+        self._mode: dict[str, int] = {}  # ... -> the speed mode set now
         self._hazards: dict[str, _Hazard] = {}
         self._res: dict[str, dict] = {}
         self._k = 0
@@ -296,21 +300,26 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
         return out
 
     # ---------------------------------------------------------------- stepping
-    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+    def advance(
+        self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None
+    ) -> TruthFrame:
         """Apply the drivers' brake requests, run one SUMO step and return the new frame.
 
         Args:
             ego_brake: ``(N,)`` deceleration requested by each slot's driver [m/s², >= 0];
                 0 or NaN (or ``None`` for all) hands the vehicle back to SUMO.
+            hold: ``(N,)`` bool, the slots whose driver is distracted
+                (:attr:`acc_fusion.truth.driver.Driver.holding`): their speed is kept, minus
+                their brake request, whatever SUMO's car following says; ``None``: none.
 
         Raises:
             SumoError: SUMO failed (the source is closed; everything read so far is kept).
         """
-        self._step(ego_brake)
+        self._step(ego_brake, hold)
         self._make()
         return self._frame
 
-    def _step(self, ego_brake: np.ndarray | None = None) -> None:
+    def _step(self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None) -> None:
         """:meth:`advance` without making the frame (the background source's child sends
         what it read, :meth:`_fill`, and the parent makes the frame)."""
         if self._closed:
@@ -320,7 +329,11 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
             brake = check_array("ego_brake", ego_brake, (self.n_pairs,), finite=False)
             brake = np.where(np.isnan(brake), 0.0, brake)
             brake = check_array("ego_brake", brake, nonnegative=True)
-        self._guard(self._control, brake)
+        if hold is not None:
+            hold = check_array("hold", hold, (self.n_pairs,)).astype(bool)
+            if brake is None:
+                brake = np.zeros(self.n_pairs)
+        self._guard(self._control, brake, hold)
         try:
             self._api.simulationStep()
         except self._errors as exc:

@@ -1,0 +1,105 @@
+r"""Eyes-off-road episodes of the simulated drivers: what makes real rear-end crashes.
+
+A driver looks away from the road now and then; during an *episode* he does not respond to
+his lead: the vehicle keeps its speed (the truth source takes it out of its car-following
+model).  The episode ends by itself after its duration, or earlier when a forward-collision
+warning (FCW on) makes him look back; either way he then needs his reaction time before he
+brakes (:class:`acc_fusion.truth.driver.Driver`).
+
+Each driver's episodes are a renewal process over his attentive driving time:
+
+.. math::
+
+    \Delta t_\text{gap} \sim \operatorname{Exp}(3600 / r), \qquad
+    T_\text{off} = \operatorname{clip}\!\left(m\, e^{s z},\ T_{\min}, T_{\max}\right),
+    \quad z \sim N(0, 1)
+
+with ``r`` episodes per hour.  The draws of a driver's k-th episode are a function of the
+seed, his slot and k only, so two runs on the same seed (FCW off and on) give a driver the
+same episodes until the runs' traffic differs.
+
+Where the numbers come from (assumptions anchored in published figures; no naturalistic
+distribution was fitted here):
+
+- Duration.  The NHTSA *Visual-Manual Driver Distraction Guidelines* (2013, 78 FR 24818)
+  accept a task whose glances away from the road last at most 2 s for 85 % of drivers; the
+  100-Car naturalistic study found that eyes-off-road durations over 2 s about double the
+  risk of a crash or near-crash (Klauer, Dingus, Neale, Sudweeks & Ramsey, *The impact of
+  driver inattention on near-crash/crash risk*, DOT HS 810 594, 2006).  Default: log-normal
+  with median 1.2 s and log-sd 0.5, so that 15 % of episodes exceed 2 s, clipped to
+  0.3-6 s.
+- Frequency.  Default 0 (off), so every study states the rate it assumes; ``acc-fusion sumo``
+  uses :data:`TRAFFIC_DISTRACTION_RATE`, 300 episodes per hour of attentive driving: with the
+  default durations (mean 1.36 s) the eyes are off the road about 10 % of the driving time,
+  the share reported for the naturalistic drivers of Klauer, Guo, Simons-Morton, Ouimet, Lee
+  & Dingus, "Distracted driving and risk of road crashes among novice and experienced
+  drivers", *N. Engl. J. Med.* 370:54-59, 2014 (as summarised in the NIH's release of the
+  study; the figure was not checked in the paper itself, so treat it as an assumption).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acc_fusion.core.validation import check_interval, check_range
+
+#: Episodes per hour of attentive driving that the traffic commands (``acc-fusion sumo``,
+#: ``make run``) assume: eyes off the road about 10 % of the time (see the module docstring).
+TRAFFIC_DISTRACTION_RATE = 300.0
+
+
+@dataclass(frozen=True)
+class DistractionConfig:
+    """Eyes-off-road episodes of the simulated drivers (validated on construction).
+
+    Attributes:
+        rate: episodes per hour of attentive driving [1/h]; 0 (none).
+        duration_median: median episode duration [s]; 1.2.
+        duration_log_sd: standard deviation of ``ln`` duration; 0.5.
+        duration_range: ``(low, high)`` clip of the duration [s]; (0.3, 6.0).
+    """
+
+    rate: float = 0.0
+    duration_median: float = 1.2
+    duration_log_sd: float = 0.5
+    duration_range: tuple[float, float] = (0.3, 6.0)
+
+    def __post_init__(self) -> None:
+        check_range("driver.distraction.rate", self.rate, 0.0, 3600.0)
+        check_range(
+            "driver.distraction.duration_median", self.duration_median, 0.0, 60.0, lo_open=True
+        )
+        check_range("driver.distraction.duration_log_sd", self.duration_log_sd, 0.0, 3.0)
+        object.__setattr__(
+            self,
+            "duration_range",
+            check_interval("driver.distraction.duration_range", self.duration_range, lo_open=True),
+        )
+
+
+class EpisodeDraws:
+    """The gap before and the duration of each driver's k-th episode (see the module
+    docstring): reproducible per (seed, slot, k), independent of the other slots."""
+
+    def __init__(self, config: DistractionConfig, key: int) -> None:
+        self.config, self.key = config, int(key)
+
+    def gap(self, slots: np.ndarray, count: np.ndarray) -> np.ndarray:
+        """Attentive time [s] before the next episode of each of ``slots``."""
+        mean = 3600.0 / self.config.rate
+        return np.array(
+            [self._rng(0, s, k).exponential(mean) for s, k in zip(slots, count, strict=True)]
+        )
+
+    def duration(self, slots: np.ndarray, count: np.ndarray) -> np.ndarray:
+        """Duration [s] of the episode that starts now for each of ``slots``."""
+        c = self.config
+        z = np.array(
+            [self._rng(1, s, k).standard_normal() for s, k in zip(slots, count, strict=True)]
+        )
+        return np.clip(c.duration_median * np.exp(c.duration_log_sd * z), *c.duration_range)
+
+    def _rng(self, kind: int, slot, count) -> np.random.Generator:
+        return np.random.default_rng([self.key, kind, int(slot), int(count)])
