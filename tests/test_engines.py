@@ -45,6 +45,7 @@ def test_batched_equals_filterpy(name):
         "radar_faults": (
             Fault("dropout", start=2.0, end=2.6),
             Fault("bias", start=4.0, end=6.0, magnitude=4.0),
+            Fault("stuck", start=6.2, end=7.4),
         ),
         "infrared_faults": (Fault("spikes", start=1.0, end=7.0, magnitude=8.0, probability=0.05),),
     }
@@ -59,6 +60,7 @@ def test_batched_equals_filterpy(name):
             for k, f in enumerate(scheduled_frames(5))
         ]
     isolated_any = False
+    frozen = [e.isolated[:, 0].sum() for e in runs["batched"][124:148]]  # radar stuck 6.2-7.4 s
     for a, b in zip(runs["batched"], runs["filterpy"], strict=True):
         assert np.array_equal(a.valid, b.valid)
         assert np.array_equal(a.isolated, b.isolated)
@@ -70,6 +72,7 @@ def test_batched_equals_filterpy(name):
     assert runs["batched"][-1].valid.sum() > 0.8 * N_PAIRS
     if name == "federated":
         assert isolated_any, "the fault scenario should exercise isolation"
+        assert max(frozen) > 0.8 * runs["batched"][130].valid.sum(), "the stuck radar is caught"
 
 
 def test_batched_banks_have_the_models_state_dimension():

@@ -86,7 +86,7 @@ class FederatedFilter(Estimator):
     def _track_arrays(self) -> tuple:
         """The arrays :func:`_drop_one` resets: sharing factors (and their initial values),
         confirmation flags and the fault detector's windows (empty without one)."""
-        fdi = self.fdi.arrays()[:7] if self.fdi is not None else _NO_FDI[:7]
+        fdi = self.fdi.arrays()[:9] if self.fdi is not None else _NO_FDI[:9]
         return (self.beta, self._beta0, self._seen, self._needed, self.fdi is not None, *fdi)
 
     def forget(self, pairs):
@@ -242,7 +242,7 @@ class FederatedFilter(Estimator):
             *input_args(self.b, self._u), self.h, z, r, valid, self.initialised,
             self._reported_at, *self._track_arrays(),
             *(fdi.tests() if fdi is not None else _NO_TESTS),
-            fdi.arrays()[7] if fdi is not None else _NO_FDI[7],
+            fdi.arrays()[9] if fdi is not None else _NO_FDI[9],
             self._inflate, self._feedback, self._increments, self.config.beta == "trace",
             self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
             self._coast_limit, self._nis, used,

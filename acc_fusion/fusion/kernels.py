@@ -89,19 +89,20 @@ def _confirmed(
 _NO_FDI = (
     np.zeros((0, 0, 0)), np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64),
     np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=bool),
-    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=bool),
-    np.zeros((0, 0), dtype=np.int64),
+    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=bool), np.zeros((0, 0, 0)),
+    np.zeros((0, 0), dtype=bool), np.zeros((0, 0), dtype=np.int64),
 )  # fmt: skip
 
 
-_NO_TESTS = (0.0, 0.0, 0.0, 0, False)
+_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0))
 
 
 @njit(cache=True)
 def _federated_step(
     xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
-    needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, gate, clip, threshold,
-    common_steps, manoeuvre_first, age, inflate, feedback, increments, trace, fuse_now,
+    needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
+    clip, threshold, common_steps, manoeuvre_first, still, age, inflate, feedback, increments,
+    trace, fuse_now,
     accel_var, t, coast_limit, nis, used,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`FederatedFilter._advance` of every pair, in place, pair by pair.
@@ -147,7 +148,7 @@ def _federated_step(
                     break
             if first >= 0:
                 _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos,
-                          isolated, verdict, suspect)  # fmt: skip
+                          isolated, verdict, suspect, last, frozen)  # fmt: skip
                 p0[:] = 0.0
                 for i in range(m):
                     x0[i] = z[first, k, i]
@@ -169,8 +170,8 @@ def _federated_step(
                 nis[k, s] = np.nan
         if has_fdi:
             window_one(k, nis, reporting, z, r, gate, clip, threshold, common_steps,
-                       manoeuvre_first, buf, total, count, pos, isolated, verdict, suspect, age,
-                       accepted, rejoined, manoeuvre)  # fmt: skip
+                       manoeuvre_first, still, buf, total, count, pos, isolated, verdict,
+                       suspect, last, frozen, age, accepted, rejoined, manoeuvre)  # fmt: skip
         else:
             accepted[k] = reporting[k]
         if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
@@ -215,7 +216,7 @@ def _federated_step(
         if ini and any_isolated and all_out:  # every recently reporting sensor is isolated
             initialised[k] = False
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
-                      verdict, suspect)  # fmt: skip
+                      verdict, suspect, last, frozen)  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -255,8 +256,9 @@ def _share_pairs(active, pl, beta, beta0, trace):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _drop_one(
-    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect
-):  # pragma: no cover - compiled
+    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect,
+    last, frozen,
+):  # pragma: no cover - compiled  # fmt: skip
     """Forget pair ``k``'s track state: initial sharing factors, no sensor seen or needed,
     fresh fault-detection windows."""
     for s in range(beta.shape[0]):
@@ -264,15 +266,16 @@ def _drop_one(
         seen[s, k] = False
         needed[s, k] = False
     if has_fdi:
-        reset_one(k, buf, total, count, pos, isolated, verdict, suspect)
+        reset_one(k, buf, total, count, pos, isolated, verdict, suspect, last, frozen)
 
 
 @njit(cache=True)
 def _drop_pairs(
-    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect
-):  # pragma: no cover - compiled
+    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict,
+    suspect, last, frozen,
+):  # pragma: no cover - compiled  # fmt: skip
     """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
     for k in range(pairs.size):
         if pairs[k]:
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
-                      verdict, suspect)  # fmt: skip
+                      verdict, suspect, last, frozen)  # fmt: skip
