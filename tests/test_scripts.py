@@ -74,7 +74,7 @@ def test_fault_tolerance(tmp_path):
     for sensor in ("radar", "infrared"):
         for kind in ("dropout", "stuck", "bias +5 m", "2% spikes", "noise x10"):
             assert f"\n{sensor} {kind} " in out
-    assert "both 2% spikes" in out and "false isolations on healthy data" in out
+    assert "both 2% spikes" in out and "false isolations" in out and "detected_by" in out
     assert "1.1x infrared alone" in out and "1.5x healthy" in out
     assert re.fullmatch(r"worst_ratio_to_bound=[0-9.]+", out.strip().splitlines()[-1])
     assert_png(png)

@@ -64,7 +64,7 @@ class FederatedFilter(Estimator):
         self.beta = np.repeat(self._beta0[:, None], n, axis=1)
         self._infl: np.ndarray | None = None  # 1 / beta, recomputed after beta changes
         fdi = None if self.plain else self.config.fdi
-        self.fdi = None if fdi is None else WindowedChiSquare(n, s, fdi)
+        self.fdi = None if fdi is None else WindowedChiSquare(n, s, fdi, self.config.filter.dt)
         self._confirm = fdi is not None and fdi.confirm_tracks and self._coverage is not None
         self._seen = np.zeros((s, n), dtype=bool)
         self._needed = np.zeros((s, n), dtype=bool)
@@ -166,6 +166,8 @@ class FederatedFilter(Estimator):
                 self.locals.assign(s, init, x0, p0, infl[s])
             ini = self.initialised = ini | init
 
+        if self.fdi is not None:  # a noise burst's adapted R
+            r = r * self.fdi.noise_scale.T[:, :, None, None]
         reporting = ini[None] & valid & ~consumed
         xm, pm = np.array(self.master.x[0]), np.array(self.master.p[0])
         nis = np.stack(

@@ -20,7 +20,7 @@ from acc_fusion.filters.kalman import (
     predict_one,
     update_one,
 )
-from acc_fusion.fusion.fdi import reset_one, window_one
+from acc_fusion.fusion.fdi import SCALE, reset_one, window_one
 
 
 @njit(cache=True)
@@ -94,14 +94,14 @@ _NO_FDI = (
 )  # fmt: skip
 
 
-_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0))
+_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0))
 
 
 @njit(cache=True)
 def _federated_step(
     xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
     needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
-    clip, threshold, common_steps, manoeuvre_first, still, age, inflate, feedback, increments,
+    clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
     trace, fuse_now,
     accel_var, t, coast_limit, nis, used,
 ):  # pragma: no cover - compiled  # fmt: skip
@@ -163,6 +163,8 @@ def _federated_step(
                 consumed[k, first] = True
         ini = initialised[k]
         for s in range(n_s):
+            if has_fdi:  # a noise burst's adapted R
+                r[s, k] *= last[k, s, SCALE]
             reporting[k, s] = ini and valid[s, k] and not consumed[k, s]
             if reporting[k, s]:
                 nis[k, s] = nis_one(xm[k], pm[k], h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
@@ -170,7 +172,7 @@ def _federated_step(
                 nis[k, s] = np.nan
         if has_fdi:
             window_one(k, nis, reporting, z, r, gate, clip, threshold, common_steps,
-                       manoeuvre_first, still, buf, total, count, pos, isolated, verdict,
+                       manoeuvre_first, var, buf, total, count, pos, isolated, verdict,
                        suspect, last, frozen, age, accepted, rejoined, manoeuvre)  # fmt: skip
         else:
             accepted[k] = reporting[k]
