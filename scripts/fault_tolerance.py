@@ -19,6 +19,8 @@ is ``worst_ratio_to_bound=<x>`` (a fault-tolerant federated filter has x <= 1).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from acc_fusion.cli.common import study_parser
@@ -28,6 +30,7 @@ from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
+from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.sim.estimation import run_estimation
 from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source
 
@@ -40,16 +43,23 @@ ONSET, END, DURATION, SCORE_FROM, DT = 3.0, 8.0, 10.0, 1.0, 0.05
 #: Runs of ``--quick`` (the whole table in well under a minute).
 QUICK_RUNS = 100
 
-#: One fault per kind of :data:`acc_fusion.sensors.faults.FAULT_KINDS`, as in the issue.
-KIND_FAULTS: dict[str, Fault] = {
-    "dropout": Fault("dropout", start=ONSET, end=END),
-    "stuck": Fault("stuck", start=ONSET, end=END),
-    "bias +5 m": Fault("bias", start=ONSET, end=END, magnitude=5.0),
-    "2% spikes": Fault(
-        "spikes", start=ONSET, end=END, magnitude=10.0, rate_magnitude=5.0, probability=0.02
-    ),
-    "noise x10": Fault("noise_burst", start=ONSET, end=END, magnitude=10.0),
-}
+#: The alert table: runs of the random FCW suite [s], faults active from ONSET to the end.
+ALERT_DURATION, ALERT_SCENARIO = 20.0, "random"
+
+
+def kind_faults(start: float, end: float) -> dict[str, Fault]:
+    """One fault per kind of :data:`acc_fusion.sensors.faults.FAULT_KINDS`, as in the issue,
+    active from ``start`` to ``end`` [s]."""
+    return {
+        "dropout": Fault("dropout", start=start, end=end),
+        "stuck": Fault("stuck", start=start, end=end),
+        "bias +5 m": Fault("bias", start=start, end=end, magnitude=5.0),
+        "2% spikes": Fault(
+            "spikes", start=start, end=end, magnitude=10.0, rate_magnitude=5.0, probability=0.02
+        ),
+        "noise x10": Fault("noise_burst", start=start, end=end, magnitude=10.0),
+    }
+
 
 #: Estimators of the table: label -> fusion method.
 METHODS = {
@@ -60,19 +70,46 @@ METHODS = {
 FEDERATED = "federated+FDI"
 
 
-def scenarios() -> dict[str, dict[str, tuple[Fault, ...]]]:
+def scenarios(start: float = ONSET, end: float = END) -> dict[str, dict[str, tuple[Fault, ...]]]:
     """Fault label -> ``{"<sensor>_faults": faults}``: healthy, every kind on each sensor,
-    and two sensors faulty at once."""
+    and two sensors faulty at once (faults active from ``start`` to ``end``)."""
+    kinds = kind_faults(start, end)
     out: dict[str, dict[str, tuple[Fault, ...]]] = {"healthy": {}}
     for sensor in SENSOR_NAMES:
-        for label, fault in KIND_FAULTS.items():
+        for label, fault in kinds.items():
             out[f"{sensor} {label}"] = {f"{sensor}_faults": (fault,)}
-    out["both 2% spikes"] = {f"{s}_faults": (KIND_FAULTS["2% spikes"],) for s in SENSOR_NAMES}
+    out["both 2% spikes"] = {f"{s}_faults": (kinds["2% spikes"],) for s in SENSOR_NAMES}
     out["infrared stuck + radar 2% spikes"] = {
-        "infrared_faults": (KIND_FAULTS["stuck"],),
-        "radar_faults": (KIND_FAULTS["2% spikes"],),
+        "infrared_faults": (kinds["stuck"],),
+        "radar_faults": (kinds["2% spikes"],),
     }
     return out
+
+
+def alert_table(n_runs: int, seed: int) -> Table:
+    """Alerts under each fault: the FCW warnings of each method, classed from truth
+    (:mod:`acc_fusion.metrics.alert_classes`), on the random FCW suite (open loop)."""
+    short = {FEDERATED: "fed", "centralized": "central", "radar alone": "radar",
+             "infrared alone": "infrared"}  # fmt: skip
+    table = Table(
+        f"Alert classes under each fault: {n_runs} runs of {ALERT_DURATION:g} s of the "
+        f"{ALERT_SCENARIO} FCW suite, faults active from {ONSET:g} s to the end; sensing-false "
+        "alerts / crash-relevant situations missed",
+        ("fault", "relevant", *(f"{short[m]}_false/missed" for m in METHODS)),
+    )
+    for fault, faults in scenarios(ONSET, math.inf).items():
+        res = simulate(
+            SimConfig(
+                scenario=ALERT_SCENARIO, runs=n_runs, seed=seed, duration=ALERT_DURATION,
+                methods=tuple(METHODS.values()), fusion=FusionConfig(), **faults,
+            )
+        )  # fmt: skip
+        row = {"fault": fault, "relevant": res.summaries["federated"].relevant}
+        for label, method in METHODS.items():
+            st = res.summaries[method]
+            row[f"{short[label]}_false/missed"] = f"{st.sensing_false}/{st.relevant_missed}"
+        table.rows.append(row)
+    return table
 
 
 #: What a detection is: isolation, R adapted to a noise burst, silence (a dropout), a report
@@ -213,8 +250,11 @@ def main(argv: list[str] | None = None) -> None:
         "--quick", action="store_true", help=f"{QUICK_RUNS} runs (overrides --runs)"
     )
     args = parser.parse_args(argv)
-    table, worst = fault_table(QUICK_RUNS if args.quick else args.runs, args.seed)
+    runs = QUICK_RUNS if args.quick else args.runs
+    table, worst = fault_table(runs, args.seed)
     print(table.format())
+    print()
+    print(alert_table(runs, args.seed).format())
     if args.plot:
         plot(table, args.plot)
         print(f"plot written to {args.plot}")
