@@ -110,3 +110,22 @@ def test_spikes_do_not_pass_for_a_noise_burst():
     spikes = Fault("spikes", start=ONSET, magnitude=10.0, rate_magnitude=5.0, probability=0.02)
     _, scales = trace({"radar_faults": (spikes,), "infrared_faults": (spikes,)}, steps=200)
     assert np.mean(scales > 1.0) < 0.005
+
+
+@pytest.mark.parametrize("kind", ["dropout", "stuck"])
+def test_a_lead_that_appears_while_the_radar_fails_is_still_reported(kind):
+    """The random FCW suite with the radar failing from 3 s on: cut-ins during the fault used
+    to wait for the radar to confirm them (7 crash-relevant situations missed in 100 runs
+    with a dropout, 9 with a stuck radar); the centralized filter misses 23 with it stuck."""
+    from acc_fusion.sim.closed_loop import SimConfig, simulate
+
+    cfg = SimConfig(
+        scenario="random",
+        runs=100,
+        duration=20.0,
+        methods=("federated", "centralized"),
+        radar_faults=(Fault(kind, start=ONSET),),
+    )
+    fed = simulate(cfg).summaries["federated"]
+    assert fed.relevant > 50
+    assert fed.relevant_missed == 0 and fed.sensing_false == 0

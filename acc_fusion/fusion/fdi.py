@@ -232,7 +232,7 @@ class WindowedChiSquare(PairState):
         self._age = np.zeros((n_pairs, n_sensors), dtype=np.int64)
 
     def reset(self, pairs: np.ndarray) -> None:
-        """Forget windows and isolation of the pairs in the boolean mask ``pairs``."""
+        """Forget every test of the pairs in the boolean mask ``pairs`` (a new vehicle)."""
         _reset(np.ascontiguousarray(pairs, dtype=bool), *self.arrays()[:9])
 
     def tests(self) -> tuple[float, float, float, int, bool, tuple[float, ...]]:
@@ -466,9 +466,14 @@ def _clear_window(i, s, buf, total, count, pos):  # pragma: no cover - compiled
 def _reset(
     mask, buf, total, count, pos, isolated, verdict, suspect, last, frozen
 ):  # pragma: no cover
-    """:meth:`WindowedChiSquare.reset` of the pairs in ``mask``."""
+    """:meth:`WindowedChiSquare.reset` of the pairs in ``mask``: the track's tests and the
+    sensors' (variance tests, frozen verdicts), as for a new vehicle."""
     for i in range(mask.size):
         if mask[i]:
+            for s in range(buf.shape[1]):
+                last[i, s, :] = 0.0
+                last[i, s, SCALE] = 1.0
+                frozen[i, s] = False
             reset_one(i, buf, total, count, pos, isolated, verdict, suspect, last, frozen)
 
 
@@ -476,17 +481,15 @@ def _reset(
 def reset_one(
     i, buf, total, count, pos, isolated, verdict, suspect, last, frozen
 ):  # pragma: no cover
-    """Forget the windows, the suspicion, the frozen-output test and the isolation of pair
-    ``i``."""
+    """Forget pair ``i``'s track-level tests (windows, suspicion, gate verdicts) for a new
+    track.  The variance tests (``last``) judge each sensor's output, not the track, and go on:
+    a frozen sensor stays frozen and isolated, a noise burst keeps its R factor."""
     for s in range(buf.shape[1]):
         for k in range(buf.shape[2]):
             buf[i, s, k] = 0.0
-        last[i, s, :] = 0.0
-        last[i, s, SCALE] = 1.0
-        frozen[i, s] = False
         total[i, s] = 0.0
         count[i, s] = 0
         pos[i, s] = 0
-        isolated[i, s] = False
+        isolated[i, s] = frozen[i, s]
         verdict[i, s] = 0
         suspect[i, s] = False

@@ -91,7 +91,10 @@ class FederatedFilter(Estimator):
 
     def forget(self, pairs):
         super().forget(pairs)
-        self._reported_at[:, np.asarray(pairs, dtype=bool)] = -np.inf  # a new vehicle's track
+        pairs = np.asarray(pairs, dtype=bool)
+        self._reported_at[:, pairs] = -np.inf  # a new vehicle's track
+        if self.fdi is not None:  # and its sensors: no frozen output, no noise burst
+            self.fdi.reset(pairs)
 
     def _reported(self) -> np.ndarray:
         r"""Tracks confirmed by every sensor that should see them.
@@ -103,7 +106,10 @@ class FederatedFilter(Estimator):
         interval at some step of the track.  A radar ghost (a stationary roadside object, the
         classic cause of FCW false alarms) that the infrared camera should see but does not
         is never reported, not even when its coasting estimate leaves the camera's range; a
-        target beyond the camera's range needs the radar alone.
+        target beyond the camera's range needs the radar alone.  A needed sensor that has gone
+        offline (a dropout) or been isolated (stuck, say) since no longer blocks the track: a
+        lead that cuts in during a dropout of the radar was never reported before (7 missed
+        crash-relevant situations in 100 runs of the random suite, ``scripts/fault_tolerance.py``).
         """
         if not self._confirm:
             return self.initialised.copy()
@@ -157,7 +163,9 @@ class FederatedFilter(Estimator):
         self.master.predict(self.f, self.q, 1.0, ini[None], self.b, self._u)
         self.locals.predict(self.f, self.q, self._inflation(), ini[None], self.b, self._u)
 
-        init, x0, p0, consumed = self._initial(z, r, valid)
+        # A new track starts from the first reporting sensor that is not frozen.
+        starts = valid if self.fdi is None else valid & ~self.fdi.frozen.T
+        init, x0, p0, consumed = self._initial(z, r, starts)
         if x0 is not None:
             self._drop(init)
             self.master.assign(0, init, x0, p0)

@@ -69,7 +69,7 @@ def _confirmed(
     becomes *needed* when it is online (it delivered a frame at ``online_at[s]``, at most
     ``coast_limit`` before ``t``), not isolated (``isolated (N, S)``) and the estimated gap
     ``x[k, 0]`` lies in ``[lo[s], hi[s]]``; ``out[k]``: the pair is initialised and every
-    needed sensor has been seen."""
+    needed sensor that is still online and not isolated has been seen."""
     n_sensors, n_pairs = needed.shape
     online = np.empty(n_sensors, dtype=np.bool_)
     for s in range(n_sensors):
@@ -80,7 +80,8 @@ def _confirmed(
         for s in range(n_sensors):
             if online[s] and gap >= lo[s] and gap <= hi[s] and not isolated[k, s] and ok:
                 needed[s, k] = True
-            confirmed &= seen[s, k] or not needed[s, k]
+            # A sensor gone offline or isolated since can no longer confirm: it does not block.
+            confirmed &= seen[s, k] or not needed[s, k] or not online[s] or isolated[k, s]
         out[k] = confirmed
 
 
@@ -142,8 +143,8 @@ def _federated_step(
                 predict_one(xl[s, k], pl[s, k], f, q, scale, b, uk, xt, fp)
         else:  # a new track from the first reporting sensor
             first = -1
-            for s in range(n_s):
-                if valid[s, k]:
+            for s in range(n_s):  # the first reporting sensor that is not frozen
+                if valid[s, k] and not (has_fdi and frozen[k, s]):
                     first = s
                     break
             if first >= 0:
