@@ -129,3 +129,34 @@ def test_a_lead_that_appears_while_the_radar_fails_is_still_reported(kind):
     fed = simulate(cfg).summaries["federated"]
     assert fed.relevant > 50
     assert fed.relevant_missed == 0 and fed.sensing_false == 0
+
+
+@SENSOR_RATES
+def test_a_sensor_that_unfreezes_is_readmitted(sensor, index, reports_per_s):
+    """Stuck for 2 s: isolated during the fault, back in the fusion in every run within two
+    frozen-test lengths after it (a passing test, then a passing window)."""
+    end = ONSET + 2.0
+    isolated, _ = trace({f"{sensor}_faults": (Fault("stuck", start=ONSET, end=end),)}, steps=200)
+    back = int(round((end + 4 * FDIConfig().stuck_pairs / reports_per_s) / DT))
+    assert isolated[int(round(end / DT)) - 1, :, index].all()
+    assert not isolated[back:, :, index].any()
+
+
+def test_a_new_vehicle_forgets_the_frozen_verdict_but_a_new_target_keeps_it():
+    est = make_estimator(
+        FusionConfig(method="federated", filter=FOLLOWING_FILTER), SENSOR_NAMES, N_RUNS
+    )
+    src = following_source(N_RUNS, 4)
+    sensors = make_sensors(5, radar_faults=(Fault("stuck", start=ONSET),))
+    frame = src.frame()
+    for _ in range(100):  # 5 s: the radar is frozen in every run
+        est.step([s.measure(frame) for s in sensors], frame.leader_id)
+        frame = src.advance()
+    assert est.fdi.frozen[:, 0].all()
+    # A new target (the lead changes) keeps the sensor's verdict: it is still stuck.
+    est.step([s.measure(frame) for s in sensors], frame.leader_id + 1)
+    assert est.fdi.frozen[:, 0].all() and est.fdi.isolated[:, 0].all()
+    half = np.arange(N_RUNS) < N_RUNS // 2
+    est.forget(half)  # a new vehicle in half the slots: its own, healthy sensors
+    assert not est.fdi.frozen[half].any() and not est.fdi.isolated[half].any()
+    assert est.fdi.frozen[~half, 0].all()
