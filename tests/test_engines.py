@@ -45,20 +45,27 @@ def test_batched_equals_filterpy(name):
         "radar_faults": (
             Fault("dropout", start=2.0, end=2.6),
             Fault("bias", start=4.0, end=6.0, magnitude=4.0),
+            Fault("stuck", start=6.2, end=7.4),
         ),
-        "infrared_faults": (Fault("spikes", start=1.0, end=7.0, magnitude=8.0, probability=0.05),),
+        "infrared_faults": (
+            Fault("spikes", start=1.0, end=7.0, magnitude=8.0, probability=0.05),
+            Fault("noise_burst", start=2.0, end=4.0, magnitude=10.0),
+        ),
     }
-    runs = {}
+    runs, scales = {}, {}
     for engine in ("batched", "filterpy"):
         cfg = FusionConfig(engine=engine, filter=LG_FILTER, **CONFIGS[name])
         est = make_estimator(cfg, SENSOR_NAMES, N_PAIRS)
         sensors = linear_sensors(11, **faults)
         accel = np.random.default_rng(9).normal(0.0, 2.0, (STEPS, N_PAIRS))  # ego input
-        runs[engine] = [
-            est.step([s.measure(f) for s in sensors], f.leader_id, accel[k])
-            for k, f in enumerate(scheduled_frames(5))
-        ]
+        runs[engine], scales[engine] = [], []
+        for k, f in enumerate(scheduled_frames(5)):
+            runs[engine].append(est.step([s.measure(f) for s in sensors], f.leader_id, accel[k]))
+            if getattr(est, "fdi", None) is not None:
+                scales[engine].append(est.fdi.noise_scale.copy())
+    np.testing.assert_array_equal(scales["batched"], scales["filterpy"])
     isolated_any = False
+    frozen = [e.isolated[:, 0].sum() for e in runs["batched"][124:148]]  # radar stuck 6.2-7.4 s
     for a, b in zip(runs["batched"], runs["filterpy"], strict=True):
         assert np.array_equal(a.valid, b.valid)
         assert np.array_equal(a.isolated, b.isolated)
@@ -70,6 +77,8 @@ def test_batched_equals_filterpy(name):
     assert runs["batched"][-1].valid.sum() > 0.8 * N_PAIRS
     if name == "federated":
         assert isolated_any, "the fault scenario should exercise isolation"
+        assert max(frozen) > 0.8 * runs["batched"][130].valid.sum(), "the stuck radar is caught"
+        assert np.max(scales["batched"], axis=(0, 1))[1] > 10.0, "the noise burst adapts R"
 
 
 def test_batched_banks_have_the_models_state_dimension():

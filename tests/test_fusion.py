@@ -159,7 +159,7 @@ def test_a_braking_lead_is_a_manoeuvre_not_a_radar_fault(manoeuvre, most):
 def test_a_report_beyond_the_gate_is_used_when_another_sensor_confirms_it():
     from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
 
-    fdi = WindowedChiSquare(3, 2, FDIConfig())
+    fdi = WindowedChiSquare(3, 2, FDIConfig(), dt=0.05)
     nis = np.array([[40.0, 1.0], [40.0, 1.0], [40.0, np.nan]])
     reported = np.array([[True, True], [True, True], [True, False]])
     r = np.tile(np.diag([0.04, 0.01]), (2, 3, 1, 1))

@@ -71,7 +71,12 @@ def test_fault_tolerance(tmp_path):
     png = tmp_path / "fault_tolerance.png"
     out = run("fault_tolerance.py", "--runs", "20", "--plot", str(png)).stdout
     assert "Fault tolerance: fused gap RMSE, 20 runs of 10 s" in out
-    assert "radar bias +5 m" in out and "centralized" in out
+    for sensor in ("radar", "infrared"):
+        for kind in ("dropout", "stuck", "bias +5 m", "2% spikes", "noise x10"):
+            assert f"\n{sensor} {kind} " in out
+    assert "both 2% spikes" in out and "false isolations" in out and "detected_by" in out
+    assert "1.1x infrared alone" in out and "1.5x healthy" in out
+    assert re.fullmatch(r"worst_ratio_to_bound=[0-9.]+", out.strip().splitlines()[-1])
     assert_png(png)
 
 

@@ -20,7 +20,7 @@ from acc_fusion.filters.kalman import (
     predict_one,
     update_one,
 )
-from acc_fusion.fusion.fdi import reset_one, window_one
+from acc_fusion.fusion.fdi import SCALE, reset_one, window_one
 
 
 @njit(cache=True)
@@ -69,7 +69,7 @@ def _confirmed(
     becomes *needed* when it is online (it delivered a frame at ``online_at[s]``, at most
     ``coast_limit`` before ``t``), not isolated (``isolated (N, S)``) and the estimated gap
     ``x[k, 0]`` lies in ``[lo[s], hi[s]]``; ``out[k]``: the pair is initialised and every
-    needed sensor has been seen."""
+    needed sensor that is still online and not isolated has been seen."""
     n_sensors, n_pairs = needed.shape
     online = np.empty(n_sensors, dtype=np.bool_)
     for s in range(n_sensors):
@@ -80,7 +80,8 @@ def _confirmed(
         for s in range(n_sensors):
             if online[s] and gap >= lo[s] and gap <= hi[s] and not isolated[k, s] and ok:
                 needed[s, k] = True
-            confirmed &= seen[s, k] or not needed[s, k]
+            # A sensor gone offline or isolated since can no longer confirm: it does not block.
+            confirmed &= seen[s, k] or not needed[s, k] or not online[s] or isolated[k, s]
         out[k] = confirmed
 
 
@@ -89,19 +90,20 @@ def _confirmed(
 _NO_FDI = (
     np.zeros((0, 0, 0)), np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64),
     np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=bool),
-    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=bool),
-    np.zeros((0, 0), dtype=np.int64),
+    np.zeros((0, 0), dtype=np.int8), np.zeros((0, 0), dtype=bool), np.zeros((0, 0, 0)),
+    np.zeros((0, 0), dtype=bool), np.zeros((0, 0), dtype=np.int64),
 )  # fmt: skip
 
 
-_NO_TESTS = (0.0, 0.0, 0.0, 0, False)
+_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0))
 
 
 @njit(cache=True)
 def _federated_step(
     xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
-    needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, gate, clip, threshold,
-    common_steps, manoeuvre_first, age, inflate, feedback, increments, trace, fuse_now,
+    needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
+    clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
+    trace, fuse_now,
     accel_var, t, coast_limit, nis, used,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`FederatedFilter._advance` of every pair, in place, pair by pair.
@@ -141,13 +143,13 @@ def _federated_step(
                 predict_one(xl[s, k], pl[s, k], f, q, scale, b, uk, xt, fp)
         else:  # a new track from the first reporting sensor
             first = -1
-            for s in range(n_s):
-                if valid[s, k]:
+            for s in range(n_s):  # the first reporting sensor that is not frozen
+                if valid[s, k] and not (has_fdi and frozen[k, s]):
                     first = s
                     break
             if first >= 0:
                 _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos,
-                          isolated, verdict, suspect)  # fmt: skip
+                          isolated, verdict, suspect, last, frozen)  # fmt: skip
                 p0[:] = 0.0
                 for i in range(m):
                     x0[i] = z[first, k, i]
@@ -162,6 +164,8 @@ def _federated_step(
                 consumed[k, first] = True
         ini = initialised[k]
         for s in range(n_s):
+            if has_fdi:  # a noise burst's adapted R
+                r[s, k] *= last[k, s, SCALE]
             reporting[k, s] = ini and valid[s, k] and not consumed[k, s]
             if reporting[k, s]:
                 nis[k, s] = nis_one(xm[k], pm[k], h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
@@ -169,8 +173,8 @@ def _federated_step(
                 nis[k, s] = np.nan
         if has_fdi:
             window_one(k, nis, reporting, z, r, gate, clip, threshold, common_steps,
-                       manoeuvre_first, buf, total, count, pos, isolated, verdict, suspect, age,
-                       accepted, rejoined, manoeuvre)  # fmt: skip
+                       manoeuvre_first, var, buf, total, count, pos, isolated, verdict,
+                       suspect, last, frozen, age, accepted, rejoined, manoeuvre)  # fmt: skip
         else:
             accepted[k] = reporting[k]
         if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
@@ -215,7 +219,7 @@ def _federated_step(
         if ini and any_isolated and all_out:  # every recently reporting sensor is isolated
             initialised[k] = False
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
-                      verdict, suspect)  # fmt: skip
+                      verdict, suspect, last, frozen)  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -255,8 +259,9 @@ def _share_pairs(active, pl, beta, beta0, trace):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _drop_one(
-    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect
-):  # pragma: no cover - compiled
+    k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect,
+    last, frozen,
+):  # pragma: no cover - compiled  # fmt: skip
     """Forget pair ``k``'s track state: initial sharing factors, no sensor seen or needed,
     fresh fault-detection windows."""
     for s in range(beta.shape[0]):
@@ -264,15 +269,16 @@ def _drop_one(
         seen[s, k] = False
         needed[s, k] = False
     if has_fdi:
-        reset_one(k, buf, total, count, pos, isolated, verdict, suspect)
+        reset_one(k, buf, total, count, pos, isolated, verdict, suspect, last, frozen)
 
 
 @njit(cache=True)
 def _drop_pairs(
-    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect
-):  # pragma: no cover - compiled
+    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict,
+    suspect, last, frozen,
+):  # pragma: no cover - compiled  # fmt: skip
     """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
     for k in range(pairs.size):
         if pairs[k]:
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
-                      verdict, suspect)  # fmt: skip
+                      verdict, suspect, last, frozen)  # fmt: skip
