@@ -21,7 +21,13 @@ class Table:
         return next(r for r in self.rows if r[col] == value)
 
     def format(self) -> str:
-        """The table as aligned plain text."""
+        """The table as aligned plain text (a table without rows keeps its header).
+
+        >>> print(Table("t", ("a", "bb")).format())
+        t
+        a  bb
+        -  --
+        """
 
         def cell(v: object) -> str:
             if isinstance(v, float):
@@ -29,7 +35,7 @@ class Table:
             return str(v)
 
         body = [[cell(r.get(c, "")) for c in self.columns] for r in self.rows]
-        widths = [max(len(c), *(len(b[i]) for b in body)) for i, c in enumerate(self.columns)]
+        widths = [max([len(c), *(len(b[i]) for b in body)]) for i, c in enumerate(self.columns)]
         lines = [
             self.title,
             "  ".join(c.ljust(w) for c, w in zip(self.columns, widths, strict=True)),
