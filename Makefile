@@ -24,10 +24,10 @@ test: $(STAMP)
 	$(BIN)/ruff format --check acc_fusion scripts tests examples docs/gen
 	$(BIN)/lint-imports
 	DISABLE_MKDOCS_2_WARNING=true NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n 2 --dist loadgroup
 
 test-fast: $(STAMP)
-	$(BIN)/pytest -q -m "not slow"
+	$(BIN)/pytest -q -n 2 --dist loadgroup -m "not slow"
 
 lint: $(STAMP)
 	$(BIN)/ruff check acc_fusion scripts tests examples docs/gen

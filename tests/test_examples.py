@@ -11,6 +11,9 @@ from pathlib import Path
 
 import pytest
 
+# Ray clusters: the tests of this file and of the other Ray user run on one worker, one at a time.
+pytestmark = pytest.mark.xdist_group("ray")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 

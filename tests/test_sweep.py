@@ -21,6 +21,9 @@ from acc_fusion.sweep.config import SweepConfig, load_sweep
 from acc_fusion.sweep.executors import check_address
 from acc_fusion.sweep.run import run_sweep
 
+# Ray clusters: the tests of this file and of the other Ray user run on one worker, one at a time.
+pytestmark = pytest.mark.xdist_group("ray")
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: A small sweep: 2 thresholds x 2 fault settings x 2 seeds x 12 runs of 3 s, chunks of 6.
