@@ -25,6 +25,7 @@ from tqdm.auto import tqdm
 
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
+from acc_fusion.core.plots import plt
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.launch import load_api, sumo_command
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
@@ -65,11 +66,6 @@ def headways(config: SumoConfig, end: float, warmup: float, progress: bool = Tru
 
 def figure(h: np.ndarray, title: str):
     """Histogram and cumulative distribution of ``h`` with the reference's points."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     ax1.hist(h, bins=np.arange(0.0, MAX_HEADWAY + 0.1, 0.1), density=True, color="tab:blue")
     ax1.axvline(REFERENCE["median_s"], color="k", ls="--", label="King et al. 2022 median")

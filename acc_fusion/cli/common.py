@@ -140,13 +140,20 @@ def traffic_sim_config(args: argparse.Namespace) -> SimConfig:
     only when truth says they must (``driver.brakes_only_for_threats``)."""
     cfg = sim_config(args, runs=1)
     given = config_data(args)[0].get("driver", {})
+    rate = args.distraction
+    if rate is None and "rate" not in given.get("distraction", {}):
+        rate = TRAFFIC_DISTRACTION_RATE
+    judged = {} if "brakes_only_for_threats" in given else {"brakes_only_for_threats": True}
+    return with_driver(cfg, rate, **judged)
+
+
+def with_driver(cfg: SimConfig, rate: float | None = None, **fields) -> SimConfig:
+    """``cfg`` with its driver distracted ``rate`` times per hour (``None``: as it is) and
+    the :class:`~acc_fusion.truth.driver.DriverConfig` ``fields`` set."""
     driver = cfg.driver
-    if args.distraction is not None or "rate" not in given.get("distraction", {}):
-        rate = TRAFFIC_DISTRACTION_RATE if args.distraction is None else args.distraction
+    if rate is not None:
         driver = replace(driver, distraction=replace(driver.distraction, rate=rate))
-    if "brakes_only_for_threats" not in given:
-        driver = replace(driver, brakes_only_for_threats=True)
-    return replace(cfg, driver=driver)
+    return replace(cfg, driver=replace(driver, **fields))
 
 
 def config_data(args: argparse.Namespace) -> tuple[dict, str]:

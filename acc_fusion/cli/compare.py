@@ -5,11 +5,11 @@ runs: false alarms, misses, lead time; then collisions with FCW on and off.
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
     sim_config,
+    with_driver,
     write_summary,
 )
 from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
@@ -50,8 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
     if args.distraction is not None:
-        distraction = replace(cfg.driver.distraction, rate=args.distraction)
-        cfg = replace(cfg, driver=replace(cfg.driver, distraction=distraction, sees_threats=True))
+        cfg = with_driver(cfg, args.distraction, sees_threats=True)
     out = output_dir(args.out) if args.out else None
     comparison = compare(cfg, progress=True, drives=cfg.methods if args.all_drives else ())
     table, classes = comparison.table(), comparison.classes()

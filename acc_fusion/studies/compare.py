@@ -165,6 +165,12 @@ def compare_config(**overrides) -> SimConfig:
     return SimConfig(**{"scenario": "random", **overrides})
 
 
+def exposure_km(summaries: dict[str, FCWSummary]) -> float:
+    """The km driven in a run, from its methods' summaries (all watch the same pairs; 0
+    without a summary)."""
+    return next(iter(summaries.values())).km if summaries else 0.0
+
+
 def run_benefit(off: SimResult, on: SimResult) -> Benefit:
     """The crashes of ``off`` (warnings off) that ``on`` (the same runs, warnings on)
     avoided, paired by run (:func:`acc_fusion.metrics.benefit.paired_benefit`)."""
@@ -172,10 +178,8 @@ def run_benefit(off: SimResult, on: SimResult) -> Benefit:
     def crashes(res: SimResult) -> dict[int, float]:
         return {int(i): float(res.collision_speed[i]) for i in np.flatnonzero(res.collided)}
 
-    def km(res: SimResult) -> float:
-        return next(iter(res.summaries.values())).km
-
-    return paired_benefit(range(off.collided.size), crashes(off), crashes(on), km(off), km(on))
+    km_off, km_on = exposure_km(off.summaries), exposure_km(on.summaries)
+    return paired_benefit(range(off.collided.size), crashes(off), crashes(on), km_off, km_on)
 
 
 @dataclass

@@ -17,7 +17,7 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
-from acc_fusion.studies.compare import benefit_table, class_table, on_off_table
+from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
 from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.highway.config import HighwayConfig, HighwayError
 from acc_fusion.truth.highway.source import HighwaySource
@@ -272,12 +272,9 @@ class HighwayStudy:
     def benefit(self) -> Benefit:
         """The forward collisions of the egos that FCW avoided, paired by (episode, ego),
         with a bootstrap interval (:func:`acc_fusion.metrics.benefit.paired_benefit`)."""
-
-        def km(run: HighwayRun) -> float:
-            return next(iter(run.summaries.values())).km
-
         off, on = self.off, self.on
-        return paired_benefit(off.egos | on.egos, off.impacts, on.impacts, km(off), km(on))
+        km_off, km_on = exposure_km(off.summaries), exposure_km(on.summaries)
+        return paired_benefit(off.egos | on.egos, off.impacts, on.impacts, km_off, km_on)
 
     def benefits(self) -> Table:
         """:meth:`benefit` as a table."""

@@ -26,7 +26,7 @@ from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
-from acc_fusion.studies.compare import benefit_table, class_table, on_off_table
+from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
 from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
@@ -180,16 +180,12 @@ class SumoStudy:
         avoided, paired by vehicle, with a bootstrap interval
         (:func:`acc_fusion.metrics.benefit.paired_benefit`)."""
         on = self.on if on is None else on
-
-        def km(run: SumoRun) -> float:
-            return next(iter(run.summaries.values())).km if run.summaries else 0.0
-
         return paired_benefit(
             self.off.vehicles | on.vehicles,
             self.off.crashes,
             on.crashes,
-            km(self.off),
-            km(on),
+            exposure_km(self.off.summaries),
+            exposure_km(on.summaries),
             seed=seed,
         )
 
