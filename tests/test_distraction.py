@@ -4,6 +4,9 @@ short; the draws are reproducible per slot; the crash benefit is paired by vehic
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -175,3 +178,25 @@ def test_the_paired_benefit_and_its_interval():
     assert same.reduction == same.reduction_lo == same.reduction_hi == 0.0
     none = paired_benefit(range(10), {}, {}, 1.0, 1.0)
     assert np.isnan(none.reduction) and none.as_dict()["reduction"] is None
+
+
+def test_the_benefit_interval_does_not_depend_on_the_hash_seed():
+    code = (
+        "from acc_fusion.metrics.benefit import paired_benefit\n"
+        "ids = {f'v{i}' for i in range(600)}\n"
+        "off = {f'v{i}': 1.0 for i in range(0, 600, 17)}\n"
+        "on = {f'v{i}': 1.0 for i in range(5, 600, 19)}\n"
+        "b = paired_benefit(ids, off, on, 1.0, 1.0)\n"
+        "print(b.reduction_lo, b.reduction_hi)\n"
+    )
+    outs = {
+        subprocess.run(
+            [sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONHASHSEED": seed},
+            check=True,
+        ).stdout
+        for seed in ("1", "2", "3")
+    }
+    assert len(outs) == 1

@@ -83,7 +83,8 @@ def paired_benefit(
     (2, 1, 0.5, 1, 1, 0)
     """
     check_range("confidence", confidence, 0.0, 1.0, lo_open=True, hi_open=True)
-    ids = list(dict.fromkeys([*vehicles, *crashes_off, *crashes_on]))
+    # Sorted: a set's order changes with the process's hash seed, the resampling must not.
+    ids = sorted({*vehicles, *crashes_off, *crashes_on}, key=repr)
     x = np.array([v in crashes_off for v in ids], dtype=float)
     y = np.array([v in crashes_on for v in ids], dtype=float)
     both = [v for v in crashes_off if v in crashes_on]
