@@ -1,0 +1,48 @@
+"""Weather and light, the environment the sensors work in (a config axis and a sweep axis).
+
+The truth sources only carry the conditions; how each sensor degrades under them is in
+:mod:`acc_fusion.sensors` with its sources.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from acc_fusion.core.validation import check_choice, check_range
+
+#: The light conditions: daylight, or night (headlamps only).
+LIGHTS = ("day", "night")
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """Weather and light for a run.
+
+    Attributes:
+        light: ``"day"`` or ``"night"``.
+        fog_visibility: meteorological optical range in fog [m], ``> 0``; ``inf`` is clear
+            air (fog is, by the WMO definition, visibility below 1 000 m).
+        rain_rate: rain intensity [mm/h], ``>= 0`` (0: dry).
+    """
+
+    light: str = "day"
+    fog_visibility: float = math.inf
+    rain_rate: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_choice("conditions.light", self.light, LIGHTS)
+        vis = check_range("conditions.fog_visibility", self.fog_visibility, 0.0, lo_open=True)
+        rain = check_range("conditions.rain_rate", self.rain_rate, 0.0, hi_open=True)
+        object.__setattr__(self, "fog_visibility", vis)
+        object.__setattr__(self, "rain_rate", rain)
+
+    @property
+    def label(self) -> str:
+        """A short name for tables: ``day``, ``night, fog 80 m, rain 10 mm/h`` ..."""
+        parts = [self.light]
+        if math.isfinite(self.fog_visibility):
+            parts.append(f"fog {self.fog_visibility:g} m")
+        if self.rain_rate > 0:
+            parts.append(f"rain {self.rain_rate:g} mm/h")
+        return ", ".join(parts)

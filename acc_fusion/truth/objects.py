@@ -1,0 +1,203 @@
+"""Ground truth as objects: every vehicle and roadside object in each equipped ego's forward
+field, one :class:`ObjectFrame` per step (the 2-D world; the 1-D :class:`TruthFrame` of one
+follower→leader pair is its special case, see :meth:`ObjectFrame.lead_frame`).
+
+Conventions (DESIGN.md): SI units; the *ego frame* has its origin at the centre of the ego's
+front bumper, ``x`` forward along the ego's heading and ``y`` to the left.  An object's
+position ``(x, y)`` is the centre of its face nearest the ego — the rear face of a vehicle
+ahead, where a radar's strongest return and a camera's bounding box bottom edge lie — so on a
+straight road ``x`` of the lead is the bumper-to-bumper gap of the 1-D pipeline.  Relative
+velocity ``(vx, vy)`` is the object's ground velocity minus the ego's, both expressed in the
+ego frame (``vx`` of the lead is the range-rate on a straight road).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from acc_fusion.core.errors import InputError
+from acc_fusion.core.validation import check_array
+from acc_fusion.truth.frame import TruthFrame
+
+
+class ObjectKind(IntEnum):
+    """What an object is; sensors see each kind differently (radar cross-section, thermal
+    contrast, height) and metrics attribute false alerts to it."""
+
+    VEHICLE = 0
+    """A road vehicle in a lane, moving or stopped in traffic."""
+    PARKED = 1
+    """A vehicle parked on the shoulder."""
+    GANTRY = 2
+    """An overhead sign gantry (metal, high radar return, no thermal signature)."""
+    BRIDGE = 3
+    """An overhead bridge deck."""
+    GUARDRAIL = 4
+    """A guardrail post or other roadside metal."""
+    SIGN = 5
+    """A roadside sign post."""
+
+
+#: Kinds that never move (radar sees them at range-rate ``-ego_speed``).
+STATIONARY_KINDS = (ObjectKind.PARKED, ObjectKind.GANTRY, ObjectKind.BRIDGE,
+                    ObjectKind.GUARDRAIL, ObjectKind.SIGN)  # fmt: skip
+
+#: ``lane`` of an object that is on no lane (shoulder, roadside, overhead).
+OFF_ROAD = 99
+
+
+_FLOAT_FIELDS = (
+    "x", "y", "elevation", "vx", "vy", "speed", "accel", "heading",
+    "length", "width", "height", "rcs", "thermal_contrast",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class ObjectFrame:
+    """The objects ahead of E equipped egos at time ``t``.
+
+    Ego arrays have shape ``(E,)``; object arrays ``(E, M)``, row ``e`` the objects of ego
+    ``e`` (``M`` is the largest count of any ego this step; ``valid`` marks the used slots;
+    object order within a row carries no meaning).
+
+    Attributes:
+        t: simulation time [s].
+        ego_speed: ego speed [m/s].
+        ego_accel: ego longitudinal acceleration [m/s²].
+        ego_yaw_rate: ego yaw rate [rad/s], positive turning left.
+        road_curvature: curvature of the ego's lane at the ego [1/m], positive to the left
+            (what a lane-aware path prediction may use; 0 on a straight road).
+        valid: ``(E, M)`` bool, the slot holds an object.
+        object_id: ``(E, M)`` int64, a stable id of the object in the world (the same object
+            seen by two egos has the same id), ``-1`` in unused slots.
+        kind: ``(E, M)`` int8, an :class:`ObjectKind`.
+        x: longitudinal position of the nearest face's centre in the ego frame [m].
+        y: lateral position of the nearest face's centre in the ego frame [m], left positive.
+        elevation: height of the object's lower edge above the road [m] (0 for vehicles;
+            the clearance of a gantry or bridge).
+        vx: relative longitudinal velocity in the ego frame [m/s].
+        vy: relative lateral velocity in the ego frame [m/s].
+        speed: the object's ground speed [m/s] (0 for stationary objects).
+        accel: the object's longitudinal acceleration along its heading [m/s²].
+        heading: the object's heading relative to the ego's [rad].
+        length: object length [m].
+        width: object width [m].
+        height: object height [m] (from its lower edge).
+        rcs: radar cross-section [dBsm].
+        thermal_contrast: apparent temperature difference to the background [K].
+        lane: lane relative to the ego's (0 the ego's lane, +1 the next on the left, -1 the
+            next on the right, ...), :data:`OFF_ROAD` for objects on no lane.
+        lead: ``(E,)`` int64, the slot of the true in-path lead — the nearest vehicle ahead
+            in the ego's lane — or ``-1``.
+    """
+
+    t: float
+    ego_speed: np.ndarray
+    ego_accel: np.ndarray
+    ego_yaw_rate: np.ndarray
+    road_curvature: np.ndarray
+    valid: np.ndarray
+    object_id: np.ndarray
+    kind: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    elevation: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    speed: np.ndarray
+    accel: np.ndarray
+    heading: np.ndarray
+    length: np.ndarray
+    width: np.ndarray
+    height: np.ndarray
+    rcs: np.ndarray
+    thermal_contrast: np.ndarray
+    lane: np.ndarray
+    lead: np.ndarray
+
+    def __post_init__(self) -> None:
+        valid = np.asarray(self.valid)
+        if valid.ndim != 2 or valid.dtype != np.bool_:
+            raise InputError(f"valid must be a boolean array of shape (E, M), got {valid.shape}")
+        e, m = valid.shape
+        for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature"):
+            object.__setattr__(self, name, check_array(name, getattr(self, name), (e,)))
+        for name in _FLOAT_FIELDS:
+            value = check_array(name, getattr(self, name), (e, m), where=valid)
+            object.__setattr__(self, name, value)
+        for name, dtype in (("object_id", np.int64), ("kind", np.int8), ("lane", np.int64)):
+            value = np.asarray(getattr(self, name))
+            if value.shape != (e, m) or not np.issubdtype(value.dtype, np.integer):
+                raise InputError(f"{name} must be an integer array of shape {(e, m)}")
+            object.__setattr__(self, name, value.astype(dtype, copy=False))
+        lead = np.asarray(self.lead)
+        if lead.shape != (e,) or not np.issubdtype(lead.dtype, np.integer):
+            raise InputError(f"lead must be an integer array of shape {(e,)}")
+        rows = np.flatnonzero(lead >= 0)
+        if np.any(lead >= m) or not np.all(valid[rows, lead[rows]]):
+            raise InputError("lead must name a valid object slot of its ego or be -1")
+        object.__setattr__(self, "valid", valid)
+        object.__setattr__(self, "lead", lead.astype(np.int64, copy=False))
+
+    @property
+    def n_egos(self) -> int:
+        """Number of egos E."""
+        return int(self.valid.shape[0])
+
+    @property
+    def max_objects(self) -> int:
+        """Number of object slots M per ego."""
+        return int(self.valid.shape[1])
+
+    @property
+    def range(self) -> np.ndarray:
+        """``(E, M)`` straight-line distance from the ego's bumper centre to the object [m]."""
+        return np.hypot(self.x, self.y)
+
+    @property
+    def azimuth(self) -> np.ndarray:
+        """``(E, M)`` bearing of the object from the ego's axis [rad], left positive."""
+        return np.arctan2(self.y, self.x)
+
+    @property
+    def range_rate(self) -> np.ndarray:
+        """``(E, M)`` d(range)/dt [m/s]: the relative velocity projected on the line of
+        sight (negative when closing)."""
+        r = np.maximum(self.range, 1e-9)
+        return (self.x * self.vx + self.y * self.vy) / r
+
+    @property
+    def stationary(self) -> np.ndarray:
+        """``(E, M)`` bool, the object is of a kind that never moves."""
+        return np.isin(self.kind, np.asarray(STATIONARY_KINDS, dtype=np.int8))
+
+    def lead_frame(self) -> TruthFrame:
+        """The 1-D truth of each ego and its true in-path lead: gap ``x``, the lead's ground
+        speed and acceleration, leader id the lead's ``object_id`` (``-1`` without a lead).
+        The oracle and the alert classes of the 1-D pipeline judge this frame."""
+        n = self.n_egos
+        if self.max_objects == 0:
+            zero = np.zeros(n)
+            return TruthFrame.from_arrays(
+                self.t, self.ego_speed, self.ego_accel, zero, zero, zero, -np.ones(n, np.int64)
+            )
+        e = np.arange(n)
+        has = self.lead >= 0
+        k = np.where(has, self.lead, 0)
+
+        def pick(a: np.ndarray) -> np.ndarray:
+            return np.where(has, a[e, k], 0.0)
+
+        return TruthFrame.from_arrays(
+            self.t,
+            self.ego_speed,
+            self.ego_accel,
+            pick(self.x),
+            pick(self.speed),
+            pick(self.accel),
+            np.where(has, self.object_id[e, k], -1),
+            pick(self.y),
+        )
