@@ -95,7 +95,7 @@ from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_range
 from acc_fusion.metrics.event_kernels import _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
-from acc_fusion.metrics.summary import ALERT_CLASSES, FCWSummary, event_rates
+from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FCWSummary, event_rates
 
 #: Histogram bins [s]: lead time over [-60, 60) and TTC over [0, 60), 0.01 s wide.
 LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
@@ -157,7 +157,7 @@ class FCWMetrics(PairState):
     """
 
     _PAIR_AXES = {
-        "_onset_ttc": 0, "_collided": 0, "_pair_counts": 1, "_pair_driven_s": 0,
+        "_onset_ttc": 0, "_collided": 0, "_warn_cause": 0, "_pair_counts": 1, "_pair_driven_s": 0,
         "_pair_distance_m": 0, "_pair_lead_time_s": 0, "_values": 1,
     }  # fmt: skip
 
@@ -192,6 +192,12 @@ class FCWMetrics(PairState):
         # One step's values: TTC at new warnings, at matched warnings, lead times, speeds,
         # lead times before crash-relevant situations.
         self._values = np.empty((5, self.n_pairs))
+        # The cause of each pair's current warning (-1: none given) and the warnings by class
+        # and cause; the rows of COUNTS that say which warnings started or ended with a class.
+        self._warn_cause = np.full(self.n_pairs, -1, dtype=np.int64)
+        self._by_cause = np.zeros((len(ALERT_CLASSES), len(CAUSES)), dtype=np.int64)
+        self._cause_rows = [COUNTS.index(c) for c in (*ALERT_CLASSES, "warnings")]
+        self._causes_given = False
 
     def _resized(self, m: int) -> None:
         self.n_pairs = m
@@ -238,6 +244,7 @@ class FCWMetrics(PairState):
         active: np.ndarray,
         collided: np.ndarray | None = None,
         relevant: np.ndarray | None = None,
+        cause: np.ndarray | None = None,
     ) -> None:
         """Record one step at time ``t`` [s].
 
@@ -250,6 +257,9 @@ class FCWMetrics(PairState):
             collided: pairs that collided at this step (default: none).
             relevant: pairs in a crash-relevant situation in truth at this step
                 (:func:`acc_fusion.metrics.alert_classes.crash_relevant`; default: none).
+            cause: (N,) index into :data:`CAUSES` of what the system warns on at this step
+                (read at a warning's onset; the warning's class is counted under it when it
+                ends); default: no causes.
         """
         t = self._check_time(t)
         n = self.n_pairs
@@ -267,6 +277,14 @@ class FCWMetrics(PairState):
         ):
             self._check(system, oracle, ttc, speed, active, collided, relevant)  # raises
         self._last_t = t
+        if cause is not None:
+            cause = np.asarray(cause)
+            if cause.shape != (n,) or cause.dtype.kind not in "iu" or (cause >= len(CAUSES)).any():
+                raise InputError(
+                    f"cause must be an integer array of shape ({n},) of CAUSES indices"
+                )
+            self._causes_given = True
+            before = self._pair_counts[self._cause_rows]
 
         values = self._values
         n_active, n_new, n_matched, n_lead, n_relevant = _record(
@@ -282,6 +300,18 @@ class FCWMetrics(PairState):
         self._relevant_lead_time.add(values[4, :n_relevant])
         self._driven_s += n_active * self.dt
         self._distance_m += float(values[3, :n_active].sum()) * self.dt
+        if cause is not None:
+            delta = self._pair_counts[self._cause_rows] - before
+            self._count_causes(delta[:-1] > 0)  # ended warnings, with their onset's cause
+            started = delta[-1] > 0
+            self._warn_cause[started] = cause[started]
+
+    def _count_causes(self, ended: np.ndarray) -> None:
+        """Count the warnings that ended with each class (``ended``: (classes, N) masks) under
+        the cause recorded at their onset."""
+        for k, mask in enumerate(ended):
+            known = mask & (self._warn_cause >= 0)
+            np.add.at(self._by_cause[k], self._warn_cause[known], 1)
 
     def _check(self, system, oracle, ttc, speed, active, collided, relevant) -> None:
         """Raise the error of the first bad input of :meth:`update`."""
@@ -334,14 +364,18 @@ class FCWMetrics(PairState):
         """End the live events of ``pairs`` (all if ``None``) and count what they were."""
         w, h, c = self._warnings, self._threats, self._relevant
         w_end, h_end, c_end = w.finish(pairs), h.finish(pairs), c.finish(pairs)
+        classes = {
+            "crash_relevant": w_end & w.flagged,
+            "nuisance": w_end & ~w.flagged & w.matched,
+            "sensing_false": w_end & ~w.flagged & ~w.matched,
+        }
         self._add(
             false_alarms=w_end & ~w.matched,
             missed=h_end & ~h.matched,
-            crash_relevant=w_end & w.flagged,
-            nuisance=w_end & ~w.flagged & w.matched,
-            sensing_false=w_end & ~w.flagged & ~w.matched,
             relevant_missed=c_end & ~c.matched,
+            **classes,
         )
+        self._count_causes(np.stack([classes[c] for c in ALERT_CLASSES]))
 
     def merge(self, other: FCWMetrics) -> None:
         """Add the counts, exposure and distributions of ``other`` (a finished instance).
@@ -364,6 +398,8 @@ class FCWMetrics(PairState):
         self._relevant_lead_time.merge(other._relevant_lead_time)
         self._ttc_matched.merge(other._ttc_matched)
         self._ttc_all.merge(other._ttc_all)
+        self._by_cause += other._by_cause
+        self._causes_given |= other._causes_given
 
     def per_pair(self) -> dict[str, np.ndarray]:
         """Per-pair figures so far (complete after :meth:`finish`), arrays ``(N,)``.
@@ -400,5 +436,13 @@ class FCWMetrics(PairState):
             ttc_at_warning=self._ttc_matched.distribution(),
             ttc_at_any_warning=self._ttc_all.distribution(),
             confusion=tuple(tuple(row) for row in self._confusion.tolist()),
+            by_cause=(
+                {
+                    c: dict(zip(CAUSES, row, strict=True))
+                    for c, row in zip(ALERT_CLASSES, self._by_cause.tolist(), strict=True)
+                }
+                if self._causes_given
+                else None
+            ),
             per_pair=self.per_pair(),
         )

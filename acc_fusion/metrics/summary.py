@@ -15,6 +15,12 @@ from acc_fusion.metrics.stats import Distribution, Rate
 #: The classes of a warning, judged from truth (:mod:`acc_fusion.metrics.events`).
 ALERT_CLASSES = ("crash_relevant", "nuisance", "sensing_false")
 
+#: What a warning was given on, judged from truth at its onset (the 2-D world's
+#: :mod:`acc_fusion.sim.world`): the true in-path lead; a stationary object (parked car,
+#: gantry, bridge, guardrail, sign); a vehicle in another lane; a vehicle changing lanes
+#: (cut-in or cut-out); a ghost or clutter return (no object); while a sensor fault was active.
+CAUSES = ("lead", "stationary", "adjacent", "cut_in_out", "ghost", "fault")
+
 
 @dataclass(frozen=True)
 class FCWSummary:
@@ -38,6 +44,9 @@ class FCWSummary:
         ttc_at_warning: true TTC [s] at the onset of matched warnings.
         ttc_at_any_warning: true TTC [s] at the onset of all warnings.
         confusion: active pair-steps by oracle level (rows) and system level (columns).
+        by_cause: warnings by class and cause, ``{class: {cause: count}}`` (keys
+            :data:`ALERT_CLASSES` and :data:`CAUSES`), or ``None`` when the caller gave no
+            causes (the 1-D pipeline).
         per_pair: the per-pair figures of :meth:`FCWMetrics.per_pair` (arrays ``(N,)``), or
             ``None``; left out of :meth:`as_dict`, :meth:`format` and comparisons.
     """
@@ -72,6 +81,7 @@ class FCWSummary:
     ttc_at_warning: Distribution
     ttc_at_any_warning: Distribution
     confusion: tuple[tuple[int, int, int], ...]
+    by_cause: dict[str, dict[str, int]] | None = None
     per_pair: dict[str, np.ndarray] | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
@@ -88,6 +98,8 @@ class FCWSummary:
             return x
 
         out = {k: v for k, v in asdict(self).items() if k != "per_pair"}
+        if out["by_cause"] is None:
+            del out["by_cause"]
         for key in ("alerts_per_hour", "alerts_per_100km"):  # {class: x, class_lo:, class_hi:}
             out[key] = {
                 f"{c}{end}": rate[part]

@@ -1,0 +1,421 @@
+r"""Scripted 2-D scenes: where single sensors' false and missed alerts come from.
+
+Each scene is a road (plan curvature and vertical profile), an ego that drives its lane with the
+Intelligent Driver Model behind its true in-path lead, and scripted actors — vehicles with a
+speed program and lane changes, stationary roadside and overhead objects — batched over N runs
+with per-run jitter.  Every step gives an :class:`~acc_fusion.truth.objects.ObjectFrame` (one ego
+per run), so the 2-D sensors, trackers and in-path selection of the world pipeline meet the
+situations in which field FCW systems choose the wrong target.
+
+Scenes (:data:`SCENES`)
+    ==============  ==========================================================================
+    name            situation (the false-alarm or miss mechanism it reproduces)
+    ==============  ==========================================================================
+    lead_brakes     straight road, the lead brakes hard: the crash-relevant reference (the 1-D
+                    pipeline's special case in 2-D)
+    curve_adjacent  approaching a left curve, a slower car in the right lane lies on the
+                    straight extension of the ego's path (adjacent-lane mis-selection)
+    cut_in          a slower car changes into the ego lane close ahead
+    cut_out         the lead changes lane and reveals a stopped car (radar systems that ignore
+                    stationary targets miss it)
+    gantry_crest    a sign gantry at the top of a crest, in the radar's elevation beam while
+                    the ego climbs (an overhead stationary false target)
+    parked_curve    approaching a left curve, a car parked on the right shoulder lies on the
+                    straight extension of the path (a stationary false target)
+    ==============  ==========================================================================
+
+All scenes have guardrail posts along the right edge (sparse representative roadside metal).
+Weather and light are not part of a scene: they are a separate axis
+(:class:`~acc_fusion.truth.conditions.Conditions`) that the sensors read.
+
+Geometry: the ego lane's centreline is parameterised by arc length :math:`s` with
+piecewise-constant plan curvature :math:`\kappa(s)` (heading :math:`\theta = \int \kappa\,ds`)
+and vertical curvature :math:`\kappa_v(s)` (grade :math:`g = \int \kappa_v\,ds`, height
+:math:`z = \int g\,ds`); an actor at :math:`(s, d)` (``d`` lateral, left positive, lanes
+``LANE_WIDTH`` apart) sits at :math:`P(s) + d\,n(s)`, :math:`n` the left normal.  An object's
+``elevation`` is the height of its lower edge above the plane through the ego's wheels along
+the ego's grade, :math:`e = h_0 + z(s) - z(s_e) - g(s_e)(s - s_e)` (so on a crest an overhead
+gantry sinks toward a forward-looking sensor's boresight).
+
+Object signatures (:data:`SIGNATURES`) are assumptions anchored where a source exists: a
+passenger car's 77 GHz RCS is of the order of 10 dBsm (measurements spread over 0-20 dBsm with
+aspect; e.g. Kamel, Peden & Pezeshki, "RCS modeling and measurements for automotive radar
+applications in the W band", EuCAP 2017); large metal structures (gantries, bridges) return
+far more (assumption: 25 dBsm), a guardrail post little (assumption: 0 dBsm).  Thermal contrasts
+(assumption): a driven car's tyres, exhaust and engine about 10 K above the road, a parked car
+with a cold engine 2 K, unheated steel about 0.5 K.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.validation import check_choice, check_range
+from acc_fusion.truth.manoeuvre_params import IDM, LANE_WIDTH
+from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind
+
+#: (length, width, height [m], rcs [dBsm], thermal contrast [K]) per kind; see the module
+#: docstring for the sources and assumptions.
+SIGNATURES: dict[ObjectKind, tuple[float, float, float, float, float]] = {
+    ObjectKind.VEHICLE: (4.5, 1.8, 1.5, 10.0, 10.0),
+    ObjectKind.PARKED: (4.5, 1.8, 1.5, 10.0, 2.0),
+    ObjectKind.GANTRY: (0.5, 3 * LANE_WIDTH + 6.0, 2.0, 25.0, 0.5),
+    ObjectKind.BRIDGE: (10.0, 3 * LANE_WIDTH + 10.0, 1.5, 25.0, 0.5),
+    ObjectKind.GUARDRAIL: (0.2, 0.2, 0.8, 0.0, 0.5),
+    ObjectKind.SIGN: (0.1, 1.0, 2.0, 5.0, 0.5),
+}
+
+#: Longest range of the forward field the scenes report [m] (beyond any sensor's range).
+FIELD_RANGE = 300.0
+#: Half width of the forward field [m].
+FIELD_HALF_WIDTH = 40.0
+#: Spacing of the guardrail posts [m] (sparse representatives of the rail; assumption).
+GUARDRAIL_SPACING = 25.0
+#: Lateral position of the right guardrail [m]: half a lane, a 2.5 m hard shoulder, 0.5 m.
+GUARDRAIL_OFFSET = -(LANE_WIDTH / 2 + 3.0)
+#: Lateral position of a car parked on the right hard shoulder [m].
+SHOULDER_OFFSET = -(LANE_WIDTH / 2 + 1.5)
+#: Grid step of the road geometry [m].
+_DS = 0.5
+
+
+@dataclass(frozen=True)
+class Road:
+    """The ego lane's centreline.
+
+    Attributes:
+        curves: ``(start s [m], plan curvature [1/m])`` pieces in increasing ``s``; the road
+            is straight before the first; positive curves left.
+        vertical: ``(start s, end s, vertical curvature [1/m])`` pieces; negative is a crest.
+        length: road length [m] from ``s = -100``.
+    """
+
+    curves: tuple[tuple[float, float], ...] = ()
+    vertical: tuple[tuple[float, float, float], ...] = ()
+    length: float = 1500.0
+
+
+class _Geometry:
+    """The road sampled every ``_DS`` metres: position, heading, height and grade."""
+
+    def __init__(self, road: Road) -> None:
+        s = np.arange(-100.0, road.length, _DS)
+        kappa = np.zeros_like(s)
+        for start, k in road.curves:
+            kappa[s >= start] = k
+        kv = np.zeros_like(s)
+        for start, end, k in road.vertical:
+            kv[(s >= start) & (s < end)] = k
+        theta = np.concatenate([[0.0], np.cumsum(kappa[:-1]) * _DS])
+        self.s, self.kappa, self.theta = s, kappa, theta
+        self.x = np.concatenate([[0.0], np.cumsum(np.cos(theta[:-1])) * _DS])
+        self.y = np.concatenate([[0.0], np.cumsum(np.sin(theta[:-1])) * _DS])
+        grade = np.concatenate([[0.0], np.cumsum(kv[:-1]) * _DS])
+        self.grade = grade
+        self.z = np.concatenate([[0.0], np.cumsum(grade[:-1]) * _DS])
+
+    def at(self, name: str, s: np.ndarray) -> np.ndarray:
+        """Geometry quantity ``name`` at arc lengths ``s`` (any shape), linearly interpolated."""
+        return np.interp(s, self.s, getattr(self, name))
+
+    def point(self, s: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World position of ``(s, d)``."""
+        th = self.at("theta", s)
+        return self.at("x", s) - d * np.sin(th), self.at("y", s) + d * np.cos(th)
+
+
+@dataclass
+class Actors:
+    """Scripted actors, arrays ``(N, A)`` (runs × actors).
+
+    A vehicle's centre moves along the road at speed ``v0`` until ``brake_time``, then slows
+    at ``brake_decel`` to a stop; its lateral offset moves from ``d0`` to ``d1`` between
+    ``lc_time`` and ``lc_time + lc_duration`` (a cosine blend).  Stationary objects have
+    ``v0 = 0``.  ``clearance`` is the height of the lower edge above its road [m].
+    """
+
+    kind: np.ndarray
+    s0: np.ndarray
+    v0: np.ndarray
+    d0: np.ndarray
+    d1: np.ndarray
+    brake_time: np.ndarray
+    brake_decel: np.ndarray
+    lc_time: np.ndarray
+    lc_duration: np.ndarray
+    clearance: np.ndarray
+
+    def centre(self, t: float) -> tuple[np.ndarray, ...]:
+        """Arc length, speed, acceleration, lateral offset and its rate at time ``t``."""
+        tb = np.minimum(t, self.brake_time)
+        tau = np.maximum(t - self.brake_time, 0.0)
+        stop = np.divide(self.v0, self.brake_decel, out=np.full_like(self.v0, np.inf),
+                         where=self.brake_decel > 0)  # fmt: skip
+        tau = np.minimum(tau, stop)
+        v = self.v0 - self.brake_decel * tau
+        s = self.s0 + self.v0 * tb + self.v0 * tau - 0.5 * self.brake_decel * tau**2
+        braking = (t > self.brake_time) & (tau < stop)
+        a = np.where(braking, -self.brake_decel, 0.0)
+        u = np.clip((t - self.lc_time) / self.lc_duration, 0.0, 1.0)
+        d = self.d0 + (self.d1 - self.d0) * 0.5 * (1.0 - np.cos(np.pi * u))
+        inside = (u > 0.0) & (u < 1.0)
+        d_rate = np.where(
+            inside,
+            (self.d1 - self.d0) * 0.5 * np.pi * np.sin(np.pi * u) / self.lc_duration,
+            0.0,
+        )
+        return s, v, a, d, d_rate
+
+
+def _actors(n: int, specs: list[dict[str, object]]) -> Actors:
+    """Stack actor specs (scalars or ``(n,)`` arrays per field) into :class:`Actors`."""
+    defaults = {"v0": 0.0, "d0": 0.0, "brake_time": np.inf, "brake_decel": 0.0,
+                "lc_time": np.inf, "lc_duration": 1.0, "clearance": 0.0}  # fmt: skip
+    columns: dict[str, list[np.ndarray]] = {k: [] for k in Actors.__dataclass_fields__}
+    for spec in specs:
+        full = {**defaults, **spec}
+        full.setdefault("d1", full["d0"])
+        for key in columns:
+            columns[key].append(np.broadcast_to(np.asarray(full[key], dtype=float), (n,)))
+    arrays = {k: np.stack(v, axis=1) for k, v in columns.items()}
+    arrays["kind"] = arrays["kind"].astype(np.int8)
+    return Actors(**arrays)
+
+
+@dataclass
+class Scene:
+    """A scene batched over N runs: the road, the actors, the ego's start and IDM settings."""
+
+    name: str
+    road: Road
+    actors: Actors
+    ego_speed: np.ndarray
+    ego_desired_speed: np.ndarray
+    ego_headway: np.ndarray
+    duration: float
+
+
+def _guardrail(n: int, road: Road) -> list[dict[str, object]]:
+    posts = np.arange(-50.0, road.length - 100.0, GUARDRAIL_SPACING)
+    return [{"kind": ObjectKind.GUARDRAIL, "s0": p, "d0": GUARDRAIL_OFFSET} for p in posts]
+
+
+def _u(rng: np.random.Generator, lo: float, hi: float, n: int) -> np.ndarray:
+    return rng.uniform(lo, hi, n)
+
+
+def lead_brakes(n: int, rng: np.random.Generator) -> Scene:
+    """Straight road; the lead (0.8-1.6 s ahead, 22-30 m/s, the ego following at its own
+    speed) brakes at 4-8 m/s² to a stop after 4-6 s."""
+    road = Road()
+    v = _u(rng, 22.0, 30.0, n)
+    gap = v * _u(rng, 0.8, 1.6, n)
+    lead = {"kind": ObjectKind.VEHICLE, "s0": gap + 2.25, "v0": v,
+            "brake_time": _u(rng, 4.0, 6.0, n), "brake_decel": _u(rng, 4.0, 8.0, n)}  # fmt: skip
+    return Scene("lead_brakes", road, _actors(n, [lead, *_guardrail(n, road)]),
+                 v, v, gap / v, 12.0)  # fmt: skip
+
+
+def curve_adjacent(n: int, rng: np.random.Generator) -> Scene:
+    r"""A left curve (R 300-500 m) starts 120 m ahead of the ego (25 m/s); a car in the right
+    lane, 3-6 m/s slower, is :math:`\sqrt{2 w R}` (± 5 m) into the curve when the ego reaches
+    it — where the right lane crosses the straight extension of the ego's path."""
+    radius = rng.uniform(300.0, 500.0)
+    road = Road(curves=((120.0, 1.0 / radius),))
+    v = np.full(n, 25.0)
+    v_other = v - _u(rng, 3.0, 6.0, n)
+    into = np.sqrt(2.0 * LANE_WIDTH * radius) + _u(rng, -5.0, 5.0, n)
+    other = {"kind": ObjectKind.VEHICLE, "s0": 120.0 + into - v_other * 120.0 / v,
+             "v0": v_other, "d0": -LANE_WIDTH}  # fmt: skip
+    return Scene("curve_adjacent", road, _actors(n, [other, *_guardrail(n, road)]),
+                 v, v, np.full(n, 1.5), 10.0)  # fmt: skip
+
+
+def cut_in(n: int, rng: np.random.Generator) -> Scene:
+    """A car in the left lane, 30-45 m ahead and 2-5 m/s slower than the ego (25 m/s),
+    changes into the ego lane after 1-2 s, taking 2-3 s."""
+    road = Road()
+    v = np.full(n, 25.0)
+    car = {"kind": ObjectKind.VEHICLE, "s0": _u(rng, 30.0, 45.0, n),
+           "v0": v - _u(rng, 2.0, 5.0, n), "d0": LANE_WIDTH, "d1": 0.0,
+           "lc_time": _u(rng, 1.0, 2.0, n), "lc_duration": _u(rng, 2.0, 3.0, n)}  # fmt: skip
+    return Scene("cut_in", road, _actors(n, [car, *_guardrail(n, road)]),
+                 v, v + 2.0, np.full(n, 1.5), 10.0)  # fmt: skip
+
+
+def cut_out(n: int, rng: np.random.Generator) -> Scene:
+    """The ego (22 m/s) follows a lead 1.5 s ahead; a car stands in the lane 180-220 m ahead;
+    the lead changes to the left lane (2 s) when it is 40-55 m from the stopped car."""
+    road = Road()
+    v = np.full(n, 22.0)
+    lead_s0 = v * 1.5 + 2.25
+    stopped_s = _u(rng, 180.0, 220.0, n)
+    lc = (stopped_s - _u(rng, 40.0, 55.0, n) - lead_s0) / v
+    lead = {"kind": ObjectKind.VEHICLE, "s0": lead_s0, "v0": v, "d1": LANE_WIDTH,
+            "lc_time": lc, "lc_duration": 2.0}  # fmt: skip
+    stopped = {"kind": ObjectKind.VEHICLE, "s0": stopped_s}
+    return Scene("cut_out", road, _actors(n, [lead, stopped, *_guardrail(n, road)]),
+                 v, v + 2.0, np.full(n, 1.5), 14.0)  # fmt: skip
+
+
+def gantry_crest(n: int, rng: np.random.Generator) -> Scene:
+    """A sign gantry (clearance 5.2-5.5 m) stands at the top of a crest 200 m ahead (vertical
+    radius 2-4 km over ±100 m); the ego drives at 30 m/s with no lead."""
+    radius = rng.uniform(2000.0, 4000.0)
+    road = Road(vertical=((100.0, 300.0, -1.0 / radius),))
+    v = np.full(n, 30.0)
+    gantry = {"kind": ObjectKind.GANTRY, "s0": 200.0, "clearance": _u(rng, 5.2, 5.5, n)}
+    return Scene("gantry_crest", road, _actors(n, [gantry, *_guardrail(n, road)]),
+                 v, v + 2.0, np.full(n, 1.5), 8.0)  # fmt: skip
+
+
+def parked_curve(n: int, rng: np.random.Generator) -> Scene:
+    r"""A left curve (R 250-400 m) starts 150 m ahead; a car is parked on the right shoulder
+    where the straight extension of the ego's path crosses it,
+    :math:`\sqrt{2|d|/\kappa}` into the curve; the ego drives at 25 m/s."""
+    radius = rng.uniform(250.0, 400.0)
+    road = Road(curves=((150.0, 1.0 / radius),))
+    v = np.full(n, 25.0)
+    into = np.sqrt(2.0 * abs(SHOULDER_OFFSET) * radius)
+    parked = {"kind": ObjectKind.PARKED, "s0": 150.0 + into + _u(rng, -5.0, 5.0, n),
+              "d0": SHOULDER_OFFSET}  # fmt: skip
+    return Scene("parked_curve", road, _actors(n, [parked, *_guardrail(n, road)]),
+                 v, v + 2.0, np.full(n, 1.5), 10.0)  # fmt: skip
+
+
+#: The scenes by name.
+SCENES: dict[str, Callable[[int, np.random.Generator], Scene]] = {
+    f.__name__: f
+    for f in (lead_brakes, curve_adjacent, cut_in, cut_out, gantry_crest, parked_curve)
+}
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """Which scene, how many runs, the step and the ego's yaw-rate sensor.
+
+    Attributes:
+        scene: a name of :data:`SCENES`.
+        runs: Monte Carlo runs (one ego each), ``>= 1``.
+        dt: step [s].
+        yaw_rate_std: noise std of the ego's yaw-rate gyro [rad/s]; 0.005 (0.3 °/s, the
+            order of automotive MEMS yaw-rate sensors' noise; assumption).
+    """
+
+    scene: str = "cut_out"
+    runs: int = 50
+    dt: float = 0.05
+    yaw_rate_std: float = 0.005
+
+    def __post_init__(self) -> None:
+        check_choice("scene", self.scene, SCENES)
+        if not isinstance(self.runs, int) or self.runs < 1:
+            raise ConfigError(f"runs must be an integer >= 1, got {self.runs!r}")
+        check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
+        check_range("yaw_rate_std", self.yaw_rate_std, 0.0)
+
+
+class SceneSource:
+    """A scene as a truth source: :meth:`frame` is the :class:`ObjectFrame` of the current
+    step, :meth:`advance` moves one step (the egos by the IDM behind their true in-path
+    lead).  ``collided`` marks runs whose ego reached its lead; a collided ego stops."""
+
+    def __init__(self, config: SceneConfig, seed: int | np.random.Generator | None = None):
+        rng = np.random.default_rng(seed)
+        self.config = config
+        self.scene = SCENES[config.scene](config.runs, rng)
+        self._gyro = np.random.default_rng(rng.integers(2**63))
+        self._geo = _Geometry(self.scene.road)
+        n = config.runs
+        self.t = 0.0
+        self._s = np.zeros(n)  # ego front bumper
+        self._v = self.scene.ego_speed.astype(float).copy()
+        self._a = np.zeros(n)
+        self.collided = np.zeros(n, dtype=bool)
+        self.active = np.ones(n, dtype=bool)
+        kinds = self.scene.actors.kind
+        table = np.array([SIGNATURES[ObjectKind(k)] for k in range(len(ObjectKind))])
+        self._sig = table[kinds]  # (N, A, 5)
+
+    @property
+    def n_steps(self) -> int:
+        """Steps in the scene."""
+        return int(round(self.scene.duration / self.config.dt))
+
+    @property
+    def done(self) -> bool:
+        """The scene's duration has passed."""
+        return self.t >= self.scene.duration - 1e-9
+
+    def _lead(self, s, d, kind) -> tuple[np.ndarray, np.ndarray]:
+        """The true in-path lead of each ego (slot, ``-1``) and the gap to it [m]."""
+        length = self._sig[..., 0]
+        rear = s - length / 2
+        in_lane = (kind == ObjectKind.VEHICLE) & (np.rint(d / LANE_WIDTH) == 0)
+        ahead = in_lane & (rear > self._s[:, None] - 1.0)
+        gap = np.where(ahead, rear - self._s[:, None], np.inf)
+        lead = np.argmin(gap, axis=1)
+        g = gap[np.arange(gap.shape[0]), lead]
+        return np.where(np.isfinite(g), lead, -1), g
+
+    def frame(self) -> ObjectFrame:
+        """The objects ahead of each ego now."""
+        geo, act = self._geo, self.scene.actors
+        s, v, a, d, d_rate = act.centre(self.t)
+        lead, _ = self._lead(s, d, act.kind)
+        length, width, height, rcs, contrast = np.moveaxis(self._sig, -1, 0)
+        se = self._s[:, None]
+        ahead = s >= se
+        face = np.where(ahead, s - length / 2, s + length / 2)
+        px, py = geo.point(face, d)
+        ex, ey = geo.point(self._s, np.zeros_like(self._s))
+        th_e = geo.at("theta", self._s)[:, None]
+        c, sn = np.cos(th_e), np.sin(th_e)
+        dx, dy = px - ex[:, None], py - ey[:, None]
+        x, y = c * dx + sn * dy, -sn * dx + c * dy
+        psi = geo.at("theta", s) + np.arctan2(d_rate, np.maximum(v, 1e-3))
+        ground = np.hypot(v, d_rate)
+        gvx = ground * np.cos(psi) - (self._v[:, None] * c)
+        gvy = ground * np.sin(psi) - (self._v[:, None] * sn)
+        vx, vy = c * gvx + sn * gvy, -sn * gvx + c * gvy
+        z_e, grade_e = geo.at("z", self._s)[:, None], geo.at("grade", self._s)[:, None]
+        elevation = act.clearance + geo.at("z", s) - z_e - grade_e * (s - se)
+        vehicle = act.kind == ObjectKind.VEHICLE
+        lane = np.where(vehicle, np.rint(d / LANE_WIDTH), OFF_ROAD).astype(np.int64)
+        valid = (x > 0.0) & (x <= FIELD_RANGE) & (np.abs(y) <= FIELD_HALF_WIDTH)
+        rows = np.arange(lead.shape[0])
+        lead = np.where((lead >= 0) & valid[rows, np.maximum(lead, 0)], lead, -1)
+        n_actors = act.kind.shape[1]
+        kappa = geo.at("kappa", self._s)
+        yaw = kappa * self._v + self._gyro.normal(0.0, self.config.yaw_rate_std, self._v.shape)
+        return ObjectFrame(
+            t=self.t, ego_speed=self._v.copy(), ego_accel=self._a.copy(), ego_yaw_rate=yaw,
+            road_curvature=kappa, valid=valid,
+            object_id=np.broadcast_to(np.arange(n_actors), valid.shape).copy(),
+            kind=act.kind, x=x, y=y, elevation=elevation, vx=vx, vy=vy,
+            speed=np.broadcast_to(ground, valid.shape).copy(), accel=a, heading=psi - th_e,
+            length=length, width=width, height=height, rcs=rcs, thermal_contrast=contrast,
+            lane=lane, lead=lead,
+        )  # fmt: skip
+
+    def advance(self) -> None:
+        """One step: the egos follow their leads with the IDM; a gap <= 0 is a collision."""
+        dt, act, sc = self.config.dt, self.scene.actors, self.scene
+        s, v, _, d, _ = act.centre(self.t)
+        lead, gap = self._lead(s, d, act.kind)
+        has = lead >= 0
+        rows = np.arange(lead.shape[0])
+        v_lead = np.where(has, v[rows, np.maximum(lead, 0)], self._v)
+        hit = has & (gap <= 0.0)
+        self.collided |= hit
+        accel = IDM.accel(self._v, sc.ego_desired_speed, sc.ego_headway, gap, v_lead, has)
+        accel = np.where(self.collided, 0.0, accel)
+        v_new = np.maximum(self._v + accel * dt, 0.0)
+        self._v = np.where(self.collided, v_lead, v_new)
+        self._a = np.where(self.collided, 0.0, accel)
+        self._s += self._v * dt
+        self.t += dt

@@ -1,0 +1,67 @@
+"""In-path target selection: the corridor, the path models and the stationary policies."""
+
+import numpy as np
+import pytest
+
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.warning.selection import InPathSelector, SelectionConfig
+
+
+def _select(config, x, y, ground, confirmed=None, yaw=0.0, speed=25.0, curvature=0.0, ids=None):
+    x, y, ground = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (x, y, ground))
+    ids = np.arange(x.shape[1])[None, :] if ids is None else np.atleast_2d(ids)
+    confirmed = np.zeros(x.shape, bool) if confirmed is None else np.atleast_2d(confirmed)
+    sel = InPathSelector(config, *x.shape)
+    return sel.step(ids, x, y, ground, confirmed, np.array([speed]), np.array([yaw]),
+                    np.array([curvature]))  # fmt: skip
+
+
+def test_the_nearest_object_in_the_corridor_is_selected():
+    cfg = SelectionConfig(stationary="all")
+    # 20 m ahead but 2.5 m aside (out), 40 m ahead in lane, 60 m in lane.
+    assert _select(cfg, [20, 40, 60], [2.5, 0.3, 0.0], [20, 20, 20])[0] == 1
+
+
+def test_nothing_in_path_selects_nothing():
+    assert _select(SelectionConfig(), [20, 40], [3.0, -3.0], [20, 20])[0] == -1
+
+
+def test_a_yaw_rate_path_follows_the_curve():
+    # A left curve of radius 400 m: a car in the ego lane 60 m ahead is 4.5 m to the left.
+    y = 0.5 * 60.0**2 / 400.0
+    straight = SelectionConfig(path="straight")
+    curved = SelectionConfig(path="yaw_rate")
+    assert _select(straight, [60], [y], [20], yaw=25.0 / 400.0)[0] == -1
+    assert _select(curved, [60], [y], [20], yaw=25.0 / 400.0)[0] == 0
+
+
+def test_a_lane_aware_path_uses_the_road_curvature_not_the_yaw_rate():
+    y = 0.5 * 60.0**2 / 400.0
+    lane = SelectionConfig(path="lane")
+    assert _select(lane, [60], [y], [20], yaw=0.0, curvature=1 / 400.0)[0] == 0
+
+
+@pytest.mark.parametrize(
+    ("policy", "confirmed", "expected"),
+    [("all", False, 0), ("ignore", True, -1), ("confirmed", False, -1), ("confirmed", True, 0)],
+)
+def test_stationary_policies(policy, confirmed, expected):
+    cfg = SelectionConfig(stationary=policy)
+    assert _select(cfg, [50], [0.0], [0.0], confirmed=[[confirmed]])[0] == expected
+
+
+def test_an_object_seen_moving_stays_selectable_when_it_stops_until_its_slot_changes_object():
+    sel = InPathSelector(SelectionConfig(), 1, 1)
+    args = (np.array([[50.0]]), np.zeros((1, 1)))
+    ego = (np.array([20.0]), np.zeros(1), np.zeros(1))
+    no = np.zeros((1, 1), bool)
+    assert sel.step(np.array([[7]]), *args, np.array([[15.0]]), no, *ego)[0] == 0
+    assert sel.step(np.array([[7]]), *args, np.array([[0.0]]), no, *ego)[0] == 0
+    assert sel.step(np.array([[8]]), *args, np.array([[0.0]]), no, *ego)[0] == -1
+
+
+def test_bad_selection_settings_are_one_error():
+    with pytest.raises(ConfigError, match="selection.path"):
+        SelectionConfig(path="gps")
+    with pytest.raises(ConfigError, match="selection.half_width"):
+        SelectionConfig(half_width=0.0)
