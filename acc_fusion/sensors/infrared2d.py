@@ -146,7 +146,8 @@ class Infrared2DSpec:
                                            scale change
     scale_baseline        0.5       s      assumption: frames between the compared images
     reference_width       1.8       m      a passenger car's width (assumption)
-    netd                  0.05      K      FLIR Boson / ADK data sheets: NETD < 50 mK
+    netd                  0.05      K      FLIR Boson data sheet (2021): thermal
+                                           sensitivity < 50 mK (< 40 mK at best)
     contrast_threshold    5         --     Rose (1948) detection criterion SNR ≈ 5
     n50_cycles            4         cycl.  Johnson (1958): recognition, 50 %
     max_detection_prob    0.95      --     as ``infrared_spec``'s detection_prob
@@ -158,7 +159,8 @@ class Infrared2DSpec:
     false_rate            0.02      1/frm  assumption: false detections per ego and frame
     ====================  ========  =====  ==================================================
 
-    Sources: Teledyne FLIR, *Boson* and *ADK* data sheets (640x512, NETD < 50 mK); G. P.
+    Sources: FLIR Systems, *Boson Thermal Imaging Core* data sheet 102-2013-40, 2021
+    (640x512 VOx microbolometer, < 50 mK); FLIR ADK product page (HFOV options); G. P.
     Stein, O. Mano, A. Shashua, IEEE IV 2003; J. Johnson 1958; A. Rose 1948 (full references
     in :mod:`acc_fusion.sensors.infrared2d`).
     """

@@ -56,19 +56,24 @@ def rain_attenuation_77ghz(rain_rate: float) -> float:
 
 
 def fog_liquid_water(visibility: float) -> float:
-    r"""Liquid water content :math:`M` [g/m³] of a fog of visibility :math:`V` [m].
+    r"""Liquid water content :math:`M` [g/m³] of a fog of visibility :math:`V` [m]:
 
-    .. math:: V = 0.024\,M^{-0.65}\ \text{km}
-              \quad\Longleftrightarrow\quad M = (0.024 / V_{\mathrm{km}})^{1/0.65}
+    .. math:: M = (0.024 / V_{\mathrm{km}})^{1.54}
 
-    (0.32 g/m³ at 50 m, 0.05 g/m³ at 200 m; 0 in clear air, ``visibility = inf``).
+    (0.32 g/m³ at 50 m, 0.05 g/m³ at 200 m; 0 in clear air, ``visibility = inf``), the
+    inverse of Eldridge's empirical relation :math:`V = 0.024\,M^{-0.65}` km.  The relation
+    depends on the droplet sizes (Tomasi & Tampieri 1976), so it is a typical, not an exact,
+    value.
 
-    Source: R. G. Eldridge, "The relationship between visibility and liquid water content in
-    fog", *Journal of the Atmospheric Sciences* 28(7):1183-1186, 1971.
+    Sources: E. E. Altshuler, "A simple expression for estimating attenuation by fog at
+    millimeter wavelengths", *IEEE Trans. Antennas Propag.* 32(7):757-758, 1984; R. G.
+    Eldridge, "The relationship between visibility and liquid water content in fog",
+    *J. Atmos. Sci.* 28:1183-1186, 1971; C. Tomasi, F. Tampieri, *Atmosphere* 14(2):61-76,
+    1976.
     """
     if math.isinf(visibility):
         return 0.0
-    return (0.024 / (visibility / 1000.0)) ** (1.0 / 0.65)
+    return (0.024 / (visibility / 1000.0)) ** 1.54
 
 
 def liquid_water_coefficient(freq_ghz: float, temperature_k: float) -> float:

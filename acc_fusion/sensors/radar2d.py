@@ -40,9 +40,10 @@ Signal-to-noise ratio and detection
 Multipath ghosts
     The double bounce radar → target → ego's front → target → radar travels twice the
     one-way path: a ghost at range :math:`2r`, range-rate :math:`2\dot r` and the target's
-    azimuth (Kamann et al. 2018), with the SNR of the target at :math:`2r` less
-    ``ghost_loss_db`` for the extra reflection (assumption).  It is detected like any return,
-    so it shows up behind close strong targets; ``origin`` :data:`GHOST`, ``object_id`` -1.
+    azimuth (the multiple reflections of Buhren & Yang 2007), with the SNR of the target at
+    :math:`2r` less ``ghost_loss_db`` for the extra reflection (assumption).  It is detected
+    like any return, so it shows up behind close strong targets; ``origin`` :data:`GHOST`,
+    ``object_id`` -1.
 
 Resolution
     Returns of one ego closer than ``range_resolution`` in range *and*
@@ -57,9 +58,10 @@ Clutter
     stationary_clutter`), ``origin`` :data:`CLUTTER`.
 
 Sources: M. A. Richards, *Fundamentals of Radar Signal Processing*, McGraw-Hill, 2005;
-M. I. Skolnik, *Introduction to Radar Systems*, 3rd ed., McGraw-Hill, 2001; A. Kamann,
-P. Held, F. Perras, P. Brosseit, C. Schwarz, "Automotive radar multipath propagation in
-uncertain environments", IEEE ITSC 2018.
+M. I. Skolnik, *Introduction to Radar Systems*, 3rd ed., McGraw-Hill, 2001; M. Buhren,
+B. Yang, "Extension of automotive radar target list simulation to consider further physical
+aspects", 7th Int. Conf. on ITS Telecommunications (ITST), 2007,
+doi:10.1109/ITST.2007.4295847.
 """
 
 from __future__ import annotations
