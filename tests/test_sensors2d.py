@@ -327,6 +327,18 @@ def test_the_same_seed_gives_the_same_detections():
     assert any(differ)
 
 
+def test_reset_restarts_the_clock_and_with_a_seed_the_noise():
+    frame = _frame([20.0, 60.0], [0.0, 2.0], egos=30)
+    radar = Radar2D(seed=4)
+    first = radar.detect(frame, CLEAR)
+    radar.reset()
+    fresh = radar.detect(frame, CLEAR)  # the same time again: allowed after reset
+    assert fresh.online and not np.array_equal(fresh.range, first.range)
+    radar.reset(seed=4)
+    again = radar.detect(frame, CLEAR)
+    np.testing.assert_array_equal(again.range, first.range)
+
+
 @pytest.mark.parametrize(
     ("config", "message"),
     [

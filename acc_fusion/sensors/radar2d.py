@@ -256,38 +256,45 @@ def _swerling1(pfa: float, snr_db: np.ndarray) -> np.ndarray:
 def _resolve(returns: Returns, snr_db: np.ndarray, s: Radar2DSpec) -> tuple[Returns, np.ndarray]:
     """Merge the returns no resolution cell separates (module docstring); the merged returns
     and their SNR [dB]."""
-    if snr_db.size == 0:
-        return returns, snr_db
-    order = np.lexsort((returns.z[0], returns.ego))
-    ret, power = returns.take(order), 10.0 ** (snr_db[order] / 10.0)
+    order = np.argsort(returns.ego * (s.max_range + 1.0) + returns.z[0])  # by ego, then range
+    ret = returns.take(order)
     cells = (s.range_resolution, math.radians(s.azimuth_resolution_deg), s.range_rate_resolution)
-    label = _cluster(ret.ego, ret.z, *cells)
-    n = int(label.max()) + 1
-    total = np.bincount(label, power, n)
-    z = np.stack([np.bincount(label, power * zi, n) for zi in ret.z]) / total
-    by_power = np.lexsort((-power, label))
-    strongest = by_power[np.r_[0, np.flatnonzero(np.diff(label[by_power])) + 1]]
+    strongest, z, power = _merge(ret.ego, ret.z, 10.0 ** (snr_db[order] / 10.0), *cells)
     merged = Returns(ret.ego[strongest], z, ret.object_id[strongest], ret.origin[strongest])
-    return merged, 10.0 * np.log10(total)
+    return merged, 10.0 * np.log10(power)
 
 
 @njit(cache=True)
-def _cluster(ego, z, dr, daz, drr):  # pragma: no cover - compiled
-    """Cluster labels ``0, 1, ...`` of returns sorted by ego then range (``z (3, K)``): a
-    return joins the nearest earlier return of its ego within ``dr`` in range, ``daz`` in
-    azimuth and ``drr`` in range-rate (single linkage), else starts a new cluster."""
+def _merge(ego, z, power, dr, daz, drr):  # pragma: no cover - compiled
+    """Merge returns sorted by ego then range (``z (3, K)``, linear SNR ``power (K,)``): a
+    return joins the cluster of the nearest earlier return of its ego within ``dr`` in range,
+    ``daz`` in azimuth and ``drr`` in range-rate (single linkage), else starts a new one.
+
+    Returns each cluster's strongest member (an index into the K returns), its SNR-weighted
+    mean ``z (3, n)`` and its summed SNR ``(n,)``.
+    """
     k = ego.size
     label = np.empty(k, np.int64)
+    strongest = np.empty(k, np.int64)
+    total = np.zeros(k)
+    weighted = np.zeros((3, k))
     n = 0
     for i in range(k):
-        label[i] = -1
+        c = -1
         j = i - 1
         while j >= 0 and ego[j] == ego[i] and z[0, i] - z[0, j] < dr:
             if abs(z[1, i] - z[1, j]) < daz and abs(z[2, i] - z[2, j]) < drr:
-                label[i] = label[j]
+                c = label[j]
                 break
             j -= 1
-        if label[i] < 0:
-            label[i] = n
+        if c < 0:
+            c = n
             n += 1
-    return label
+            strongest[c] = i
+        elif power[i] > power[strongest[c]]:
+            strongest[c] = i
+        label[i] = c
+        total[c] += power[i]
+        for a in range(3):
+            weighted[a, c] += power[i] * z[a, i]
+    return strongest[:n], weighted[:, :n] / total[:n], total[:n]

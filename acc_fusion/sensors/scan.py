@@ -178,6 +178,13 @@ class Scanner:
                 f"spec must be a {self.spec_type.__name__}, got {type(self.spec).__name__}"
             )
         self._rng, self._rng_clutter = streams(seed, 2)
+        self.reset()
+
+    def reset(self, seed: int | np.random.SeedSequence | np.random.Generator | None = None) -> None:
+        """Restart the sample clock for a new run (frame times may start again); with a
+        ``seed``, also restart the random streams (without, they continue: fresh noise)."""
+        if seed is not None:
+            self._rng, self._rng_clutter = streams(seed, 2)
         self._clock = SampleClock(self.spec.rate_hz, self.spec.phase)
         self._t_prev = -math.inf
 
