@@ -165,9 +165,16 @@ def test_rain_cuts_the_radar_range_by_the_itu_attenuation():
 def test_fog_shortens_the_camera_range_but_not_the_radar_range():
     fog = Conditions(fog_visibility=50.0)
     camera, radar = _camera(), _radar()
-    assert _hit_rate(camera, _frame(95.0), CLEAR) > 0.7
-    assert _hit_rate(camera, _frame(95.0, t=1.0), fog) < 0.1
-    assert _hit_rate(camera, _frame(60.0, t=2.0), fog) > 0.9
+
+    def camera_pd(r, conditions):
+        return camera.detection_probability(np.array([r]), 1.8, 1.5, 8.0, conditions)[0]
+
+    # an 8 K car: the apparent contrast 8 K exp(-0.5 * 3.912 r / 50) / 50 mK falls to the
+    # threshold 5 at 89 m, so the camera's range shrinks from beyond 100 m to about 90 m
+    assert camera_pd(100.0, fog) < 0.05 < 0.7 < camera_pd(100.0, CLEAR)
+    assert camera_pd(60.0, fog) == pytest.approx(camera_pd(60.0, CLEAR), abs=1e-6)
+    for k, (r, conditions) in enumerate(((95.0, CLEAR), (95.0, fog), (100.0, fog))):
+        assert _within(_hit_rate(camera, _frame(r, t=k), conditions), camera_pd(r, conditions))
     p_clear = radar.detection_probability(np.array([10.0]), np.array([200.0]), CLEAR)[0]
     p_fog = radar.detection_probability(np.array([10.0]), np.array([200.0]), fog)[0]
     assert p_fog == pytest.approx(p_clear, abs=0.03)  # 1 dB/km: a 0.4 dB two-way loss

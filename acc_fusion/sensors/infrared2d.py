@@ -47,7 +47,8 @@ Detection probability
     Darkness changes nothing: the camera images the targets' own emission.
 
 Classification
-    The detector reports vehicles: ``VEHICLE`` and ``PARKED`` (their lower thermal contrast
+    Every detection is a vehicle report (``origin`` keeps the truth for metrics).  The
+    detector reports ``VEHICLE`` and ``PARKED`` objects (their lower thermal contrast
     comes from the truth's ``thermal_contrast``).  Any other object that passes the detection
     step is mistaken for a vehicle with probability ``misclass_prob`` (assumption); overhead
     objects stay out by the geometry above.

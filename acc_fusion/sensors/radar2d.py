@@ -197,8 +197,9 @@ class Radar2D(Scanner):
 
     Example:
         >>> radar = Radar2D(seed=1)
-        >>> radar.detection_probability(np.array([10.0]), np.array([100.0]), Conditions())
-        array([0.98...])
+        >>> pd = radar.detection_probability(np.array([10.0]), np.array([100.0]), Conditions())
+        >>> round(float(pd[0]), 2)
+        0.98
     """
 
     spec_type = Radar2DSpec
