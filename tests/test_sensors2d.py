@@ -316,6 +316,26 @@ def test_the_output_is_a_valid_detections_sorted_by_ego():
         assert set(np.unique(d.origin)) <= {*map(int, ObjectKind), GHOST, CLUTTER}
 
 
+def test_unused_slots_and_empty_frames_give_no_detections():
+    radar, camera = sensors_2d({"radar": {"clutter_rate": 0.0}}, seed=3)
+    frame = _frame([30.0, 40.0], egos=2)
+    valid = np.array([[True, False], [False, False]])
+    x = np.where(valid, frame.x, np.nan)  # unused slots may hold NaN
+    fields = {k: getattr(frame, k) for k in frame.__dataclass_fields__}
+    partly = ObjectFrame(**{**fields, "valid": valid, "x": x})
+    for sensor in (radar, camera):
+        d = sensor.detect(partly, CLEAR)
+        assert set(d.object_id[d.object_id >= 0]) <= {0} and np.all(d.ego == 0)
+    empty = ObjectFrame(**{**fields, "t": 1.0, "valid": np.zeros((2, 0), dtype=bool),
+                           **{k: np.zeros((2, 0), dtype=getattr(frame, k).dtype) for k in (
+                               "x", "y", "elevation", "vx", "vy", "speed", "accel", "heading",
+                               "length", "width", "height", "rcs", "thermal_contrast",
+                               "object_id", "kind", "lane")}})  # fmt: skip
+    for sensor in (radar, camera):
+        d = sensor.detect(empty, CLEAR)
+        assert d.online and d.count == 0 and d.n_egos == 2
+
+
 def test_the_same_seed_gives_the_same_detections():
     rng = np.random.default_rng(1)
     frames = [_frame(rng.uniform(5.0, 200.0, 10), rng.uniform(-5, 5, 10), t=0.1 * k, egos=40)

@@ -48,10 +48,10 @@ Detection probability
 
 Classification
     Every detection is a vehicle report (``origin`` keeps the truth for metrics).  The
-    detector reports ``VEHICLE`` and ``PARKED`` objects (their lower thermal contrast
-    comes from the truth's ``thermal_contrast``).  Any other object that passes the detection
-    step is mistaken for a vehicle with probability ``misclass_prob`` (assumption); overhead
-    objects stay out by the geometry above.
+    detector reports ``VEHICLE`` and ``PARKED`` objects (a parked car's lower thermal
+    contrast comes from the truth's ``thermal_contrast``).  Any other object that passes the
+    detection step is mistaken for a vehicle with probability ``misclass_prob`` (assumption);
+    overhead objects stay out by the geometry above.
 
 False detections
     A Poisson number of false detections (warm road patches, reflections), mean
