@@ -72,6 +72,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.units import KMH
 from acc_fusion.sensors.detections import GHOST, Detections
 from acc_fusion.sensors.propagation import radar_two_way_loss_db
 from acc_fusion.sensors.scan import (
@@ -133,7 +134,7 @@ class Radar2DSpec:
     range_rate_std          0.12    m/s    Bosch LRR3 (de Ponte Müller 2017)
     range_resolution        1.79    m      ARS 408-21 data sheet, far range
     azimuth_resolution_deg  1.6     deg    ARS 408-21 data sheet, far range
-    range_rate_resolution   0.1     m/s    ARS 408-21 data sheet: 0.37 km/h, far range
+    range_rate_resolution   0.103   m/s    ARS 408-21 data sheet: 0.37 km/h, far range
     snr_ref_db              29      dB     calibrated: P_d = 0.98 at 100 m (``radar_spec``'s
                                            detection_prob) and 0.5 at 250 m (max range)
     ref_range               100     m      --
@@ -168,7 +169,7 @@ class Radar2DSpec:
     range_rate_std: float = 0.12
     range_resolution: float = 1.79
     azimuth_resolution_deg: float = 1.6
-    range_rate_resolution: float = 0.1
+    range_rate_resolution: float = 0.37 * KMH
     snr_ref_db: float = 29.0
     ref_range: float = 100.0
     ref_rcs: float = 10.0
