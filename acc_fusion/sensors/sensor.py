@@ -65,9 +65,9 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEAS_DIM
 from acc_fusion.core.slots import PairState, pair_mask
-from acc_fusion.core.units import TIME_TOL
 from acc_fusion.sensors.faults import Fault, Report, apply_faults
 from acc_fusion.sensors.kernels import _emit, _forget, _move_ghosts, _observe, _observe_emit
+from acc_fusion.sensors.scan import SampleClock, streams
 from acc_fusion.sensors.spec import SensorSpec, infrared_spec, radar_spec
 from acc_fusion.truth.frame import TruthFrame
 
@@ -105,17 +105,6 @@ class Measurement:
     def n_pairs(self) -> int:
         """Number of pairs N."""
         return int(self.valid.shape[0])
-
-
-def _streams(seed: int | np.random.Generator | None) -> list[np.random.Generator]:
-    """Three independent generators (noise, ghosts, faults) spawned from ``seed``."""
-    try:
-        root = np.random.default_rng(seed)
-    except (TypeError, ValueError):
-        raise ConfigError(
-            f"seed must be a non-negative integer, a numpy Generator or None, got {seed!r}"
-        ) from None
-    return root.spawn(3)
 
 
 class Sensor(PairState):
@@ -170,7 +159,7 @@ class Sensor(PairState):
             spec.range_std, spec.range_std_quadratic, spec.range_rate_std,
         )  # fmt: skip
         self._emit_params = (spec.range_std, spec.range_std_quadratic, spec.range_rate_std**2)
-        self._rng_noise, self._rng_ghost, self._rng_fault = _streams(seed)
+        self._rng_noise, self._rng_ghost, self._rng_fault = streams(seed, 3)
         self.reset()
         _warmup()
 
@@ -181,11 +170,11 @@ class Sensor(PairState):
         gymnasium's ``reset``).  The next :meth:`measure` fixes the number of pairs N.
         """
         if seed is not None:
-            self._rng_noise, self._rng_ghost, self._rng_fault = _streams(seed)
+            self._rng_noise, self._rng_ghost, self._rng_fault = streams(seed, 3)
         self._n: int | None = None
         self._capacity = 0  # the pairs the random draws are made for (>= N)
         self._t_prev = -math.inf
-        self._k = 0  # index of the next sample time phase + k / rate_hz
+        self._clock = SampleClock(self.spec.rate_hz, self.spec.phase)
         self._held_z: np.ndarray | None = None  # (2, N): the last output, what stuck repeats
         self._held_valid: np.ndarray | None = None
         self._held_ghost: np.ndarray | None = None
@@ -305,11 +294,7 @@ class Sensor(PairState):
 
     def _sample_due(self, t: float) -> bool:
         """Whether the sensor samples at frame time ``t``; advances the sample clock if so."""
-        rate, phase = self.spec.rate_hz, self.spec.phase
-        if t < phase + self._k / rate - TIME_TOL:
-            return False
-        self._k = math.floor((t - phase + TIME_TOL) * rate) + 1
-        return True
+        return self._clock.due(t)
 
 
 def _empty(t: float, name: str, n: int) -> Measurement:

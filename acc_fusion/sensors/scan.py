@@ -1,0 +1,235 @@
+r"""What every sensor shares: its random streams, its sample clock, and — for the 2-D sensors —
+Poisson clutter, measurement noise and the assembly of a :class:`Detections` frame."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.units import TIME_TOL
+from acc_fusion.core.validation import check_range
+from acc_fusion.sensors.detections import CLUTTER, Detections
+from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.objects import ObjectFrame
+
+
+def streams(seed: int | np.random.SeedSequence | np.random.Generator | None, n: int) -> list:
+    """``n`` independent :class:`numpy.random.Generator` streams spawned from ``seed``."""
+    try:
+        root = np.random.default_rng(seed)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"seed must be a non-negative integer, a SeedSequence, a numpy Generator or None, "
+            f"got {seed!r}"
+        ) from None
+    return root.spawn(n)
+
+
+class SampleClock:
+    """The sample times ``phase + k / rate_hz``, ``k = 0, 1, ...`` of a sensor.
+
+    :meth:`due` is true at the first frame whose time reaches the next sample time (tolerance
+    :data:`~acc_fusion.core.units.TIME_TOL`); the clock then waits for the first sample time
+    after that frame (samples a coarse simulation step skips are lost).
+    """
+
+    def __init__(self, rate_hz: float, phase: float) -> None:
+        self.rate_hz, self.phase = rate_hz, phase
+        self.k = 0  # index of the next sample time
+
+    def due(self, t: float) -> bool:
+        """Whether the sensor samples at frame time ``t``; advances the clock if so."""
+        if t < self.phase + self.k / self.rate_hz - TIME_TOL:
+            return False
+        self.k = math.floor((t - self.phase + TIME_TOL) * self.rate_hz) + 1
+        return True
+
+
+@dataclass(frozen=True)
+class Returns:
+    """Polar returns of all egos before noise: ``ego (K,)``, ``z (3, K)`` = range [m],
+    azimuth [rad], range-rate [m/s], the true ``object_id`` and ``origin`` of each."""
+
+    ego: np.ndarray
+    z: np.ndarray
+    object_id: np.ndarray
+    origin: np.ndarray
+
+    def __add__(self, other: Returns) -> Returns:
+        return Returns(
+            np.concatenate([self.ego, other.ego]),
+            np.concatenate([self.z, other.z], axis=1),
+            np.concatenate([self.object_id, other.object_id]),
+            np.concatenate([self.origin, other.origin]),
+        )
+
+    def take(self, index: np.ndarray) -> Returns:
+        """The returns at ``index`` (a boolean mask or indices)."""
+        return Returns(self.ego[index], self.z[:, index], self.object_id[index], self.origin[index])
+
+
+def stationary_clutter(
+    rng: np.random.Generator,
+    ego_speed: np.ndarray,
+    rate: float,
+    range_limits: tuple[float, float],
+    half_fov: float,
+) -> Returns:
+    r"""False detections: a Poisson number of mean ``rate`` per ego and scan, each uniform in
+    range over ``range_limits`` [m] and in azimuth over :math:`\pm` ``half_fov`` [rad], and
+    stationary (range-rate :math:`-v_{\mathrm{ego}}\cos\theta`, like the roadside returns that
+    cause FCW false alarms); ``object_id`` -1, ``origin`` :data:`CLUTTER`."""
+    counts = rng.poisson(rate, ego_speed.shape[0])
+    ego = np.repeat(np.arange(ego_speed.shape[0]), counts)
+    r = rng.uniform(*range_limits, ego.size)
+    az = rng.uniform(-half_fov, half_fov, ego.size)
+    z = np.stack([r, az, -ego_speed[ego] * np.cos(az)])
+    return Returns(ego, z, np.full(ego.size, -1), np.full(ego.size, CLUTTER))
+
+
+def emit(
+    t: float,
+    name: str,
+    n_egos: int,
+    returns: Returns,
+    z: np.ndarray,
+    declared_std: np.ndarray,
+) -> Detections:
+    """The :class:`Detections` of ``returns`` measured as ``z (3, K)`` with the declared
+    standard deviations ``declared_std (3, K)``, sorted by ego (stable)."""
+    order = np.argsort(returns.ego, kind="stable")
+    return Detections(
+        t, name, n_egos, True, returns.ego[order], *z[:, order], *declared_std[:, order],
+        returns.object_id[order], returns.origin[order],
+    )  # fmt: skip
+
+
+def offline(t: float, name: str, n_egos: int) -> Detections:
+    """The empty frame of a sensor that does not sample at ``t`` (``online`` False)."""
+    none = np.zeros(0)
+    ids = np.zeros(0, dtype=np.int64)
+    return Detections(t, name, n_egos, False, ids, *(none,) * 6, ids, ids.astype(np.int8))
+
+
+#: Intervals of spec fields, as keyword arguments of
+#: :func:`~acc_fusion.core.validation.check_range`.
+POSITIVE = {"lo": 0.0, "hi": math.inf, "lo_open": True, "hi_open": True}
+
+
+NONNEGATIVE = {"lo": 0.0, "hi": math.inf, "hi_open": True}
+
+
+_ABOVE = {"hi": math.inf, "lo_open": True, "hi_open": True}
+
+
+FINITE = {"lo": -math.inf, "hi": math.inf, "lo_open": True, "hi_open": True}
+
+
+PROBABILITY = {"lo": 0.0, "hi": 1.0}
+
+
+def check_spec(spec: object, bounds: dict[str, dict[str, float | bool]]) -> None:
+    """Validate a frozen spec in place: a non-empty ``name``, every field of ``bounds`` in
+    its interval (keyword arguments of :func:`~acc_fusion.core.validation.check_range`), then
+    ``max_range > min_range``; each error one sentence naming ``<name>.<field>``."""
+    name = spec.name
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"sensor name must be a non-empty string, got {name!r}")
+    for field, b in bounds.items():
+        value = check_range(f"{name}.{field}", getattr(spec, field), **b)
+        object.__setattr__(spec, field, value)
+    limit = check_range(f"{name}.max_range", spec.max_range, spec.min_range, **_ABOVE)
+    object.__setattr__(spec, "max_range", limit)
+
+
+def add_noise(rng: np.random.Generator, returns: Returns, std: np.ndarray) -> np.ndarray:
+    """``returns.z`` plus independent zero-mean Gaussian noise of standard deviations
+    ``std`` (``(3, K)`` or ``(3, 1)``)."""
+    return returns.z + std * rng.standard_normal(returns.z.shape)
+
+
+class Scanner:
+    """What the 2-D sensors share: the spec (of type :attr:`spec_type`, its default when
+    ``None``), two random streams — detection and noise, clutter — spawned from ``seed`` (so
+    that switching clutter on or off leaves the other detections unchanged), the sample clock
+    and the checks of ``detect``'s arguments.
+
+    Args:
+        spec: the sensor's performance.
+        seed: ``int``, :class:`numpy.random.SeedSequence`, :class:`numpy.random.Generator` or
+            ``None`` (fresh entropy); the same seed and frames give the same detections.
+    """
+
+    #: The spec class of the sensor (set by subclasses).
+    spec_type: type
+
+    def __init__(
+        self,
+        spec: object | None = None,
+        seed: int | np.random.SeedSequence | np.random.Generator | None = None,
+    ) -> None:
+        self.spec = self.spec_type() if spec is None else spec
+        if not isinstance(self.spec, self.spec_type):
+            raise ConfigError(
+                f"spec must be a {self.spec_type.__name__}, got {type(self.spec).__name__}"
+            )
+        self._rng, self._rng_clutter = streams(seed, 2)
+        self.reset()
+
+    def reset(self, seed: int | np.random.SeedSequence | np.random.Generator | None = None) -> None:
+        """Restart the sample clock for a new run (frame times may start again); with a
+        ``seed``, also restart the random streams (without, they continue: fresh noise)."""
+        if seed is not None:
+            self._rng, self._rng_clutter = streams(seed, 2)
+        self._clock = SampleClock(self.spec.rate_hz, self.spec.phase)
+        self._t_prev = -math.inf
+
+    def _due(self, frame: ObjectFrame, conditions: Conditions) -> bool:
+        """Check the arguments of ``detect`` (types, increasing time); whether it scans."""
+        if not isinstance(frame, ObjectFrame):
+            raise InputError(f"detect() needs an ObjectFrame, got {type(frame).__name__}")
+        if not isinstance(conditions, Conditions):
+            raise InputError(f"detect() needs Conditions, got {type(conditions).__name__}")
+        if not frame.t > self._t_prev:
+            raise InputError(
+                f"frame.t must increase from one detect() call to the next, "
+                f"got {frame.t!r} after {self._t_prev!r}"
+            )
+        self._t_prev = frame.t
+        return self._clock.due(frame.t)
+
+    @staticmethod
+    def _objects(frame: ObjectFrame) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """The ego of every valid object slot, flat ``(K,)``, and the function that picks
+        those slots from an ``(E, M)`` array of the frame."""
+        ego, slot = np.nonzero(frame.valid)
+
+        def at(a: np.ndarray) -> np.ndarray:
+            return a[ego, slot]
+
+        return ego, at
+
+    def _report(
+        self, frame: ObjectFrame, found: Returns, clutter_rate: float, half_fov: float
+    ) -> Detections:
+        """The frame's :class:`Detections`: the ``found`` returns and Poisson clutter (mean
+        ``clutter_rate`` per ego, within the range limits and :math:`\\pm` ``half_fov``), with
+        the noise of ``spec.noise_std`` at the true range, declared at the measured range."""
+        s = self.spec
+        limits = (s.min_range, s.max_range)
+        clutter = stationary_clutter(
+            self._rng_clutter, frame.ego_speed, clutter_rate, limits, half_fov
+        )
+        z = np.concatenate(
+            [
+                add_noise(self._rng, found, s.noise_std(found.z[0])),
+                add_noise(self._rng_clutter, clutter, s.noise_std(clutter.z[0])),
+            ],
+            axis=1,
+        )
+        declared = s.noise_std(np.maximum(z[0], 0.0))
+        return emit(frame.t, s.name, frame.n_egos, found + clutter, z, declared)
