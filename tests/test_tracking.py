@@ -185,7 +185,7 @@ def test_the_numba_assignment_equals_scipys_on_random_gated_matrices():
         gate = 6.0
         scratch = Scratch(max(n_r, 1), max(n_c, 1))
         out = np.empty(max(n_r, 1), np.int64)
-        gnn(d2, n_r, n_c, gate, out, *scratch.arrays())
+        gnn(d2, n_r, n_c, gate, out, scratch.arrays())
         # the reference: scipy on Stone Soup's matrix [gated distances | missed diagonal]
         cost = np.full((n_r, n_c + n_r), np.inf)
         cost[:, :n_c] = np.where(d2 < gate, d2, np.inf)

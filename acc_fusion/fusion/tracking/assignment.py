@@ -113,28 +113,51 @@ class Scratch:
         self.v, self.shortest = np.empty(width), np.empty(width)
         self.path, self.remaining = np.empty(width, np.int64), np.empty(width, np.int64)
         self.sr, self.sc = np.empty(rows, np.bool_), np.empty(width, np.bool_)
+        self.rows, self.cols = np.empty(rows, np.int64), np.empty(width, np.int64)
 
     def arrays(self) -> tuple:
-        """The arrays in the order :func:`gnn` takes them."""
+        """The arrays as :func:`gnn` takes them."""
         return (
             self.cost, self.col4row, self.row4col, self.u, self.v, self.shortest, self.path,
-            self.remaining, self.sr, self.sc,
+            self.remaining, self.sr, self.sc, self.rows, self.cols,
         )  # fmt: skip
 
 
 @njit(cache=True)
-def gnn(
-    d2, n_r, n_c, gate, out, cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc
-):  # pragma: no cover - compiled
+def gnn(d2, n_r, n_c, gate, out, scratch):  # pragma: no cover - compiled
     r"""GNN assignment of the leading ``(n_r, n_c)`` block of the squared distances ``d2``
-    (module docstring): ``out[i]`` receives the column of row ``i`` or -1 (missed).  The other
-    arguments are the :class:`Scratch` arrays."""
-    width = n_c + n_r
+    (module docstring): ``out[i]`` receives the column of row ``i`` or -1 (missed);
+    ``scratch``: :meth:`Scratch.arrays`.
+
+    Only the rows and columns with a pair inside the gate enter the assignment (a row without
+    one is missed, a column without one unassigned in every optimal solution), which keeps the
+    problems small when most objects are isolated."""
+    cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc, rows, cols = scratch
+    m_r, m_c = 0, 0
+    for j in range(n_c):
+        sc[j] = False
     for i in range(n_r):
+        out[i] = -1
+        gated = False
         for j in range(n_c):
-            cost[i, j] = d2[i, j] if d2[i, j] < gate else np.inf
-        for j in range(n_c, width):
-            cost[i, j] = gate if j - n_c == i else np.inf
-    assign(cost, n_r, width, col4row, row4col, u, v, shortest, path, remaining, sr, sc)
-    for i in range(n_r):
-        out[i] = col4row[i] if col4row[i] < n_c else -1
+            if d2[i, j] < gate:
+                gated = True
+                sc[j] = True
+        if gated:
+            rows[m_r] = i
+            m_r += 1
+    for j in range(n_c):
+        if sc[j]:
+            cols[m_c] = j
+            m_c += 1
+    width = m_c + m_r
+    for a in range(m_r):
+        for b in range(m_c):
+            d = d2[rows[a], cols[b]]
+            cost[a, b] = d if d < gate else np.inf
+        for b in range(m_c, width):
+            cost[a, b] = gate if b - m_c == a else np.inf
+    assign(cost, m_r, width, col4row, row4col, u, v, shortest, path, remaining, sr, sc)
+    for a in range(m_r):
+        if col4row[a] < m_c:
+            out[rows[a]] = cols[col4row[a]]

@@ -158,7 +158,6 @@ def _associate(
     mate_a, mate_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
     out = np.empty(n_a, np.int64)
     s, si, work = np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
-    cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc = scratch
     for e in range(n_egos):
         mate_a[:] = -1
         mate_b[:] = -1
@@ -166,7 +165,9 @@ def _associate(
             for j in range(n_b):
                 d2[i, j] = np.inf
                 if conf_a[e, i] and conf_b[e, j]:
-                    d2[i, j] = _distance(x_a[e, i], p_a[e, i], x_b[e, j], p_b[e, j], s, si, work)
+                    d2[i, j] = _distance(
+                        x_a[e, i], p_a[e, i], x_b[e, j], p_b[e, j], gate, s, si, work
+                    )
         for f in range(valid.shape[1]):  # sticky: the last frame's pairs that still gate
             if valid[e, f] and pair[e, f, 0] >= 0 and pair[e, f, 1] >= 0:
                 i = _find(conf_a[e], id_a[e], pair[e, f, 0])
@@ -178,8 +179,7 @@ def _associate(
         for r in range(n_r):
             for c in range(n_c):
                 free_d2[r, c] = d2[free_a[r], free_b[c]]
-        gnn(free_d2, n_r, n_c, gate, out, cost, col4row, row4col, u, v, shortest, path,
-            remaining, sr, sc)  # fmt: skip
+        gnn(free_d2, n_r, n_c, gate, out, scratch)
         for r in range(n_r):
             if out[r] >= 0:
                 mate_a[free_a[r]], mate_b[free_b[out[r]]] = free_b[out[r]], free_a[r]
@@ -192,9 +192,12 @@ def _associate(
 
 
 @njit(cache=True, inline="always")
-def _distance(xa, pa, xb, pb, s, si, work):  # pragma: no cover - compiled
-    """Squared Mahalanobis distance of two tracks' positions with covariance ``P_a + P_b``."""
+def _distance(xa, pa, xb, pb, gate, s, si, work):  # pragma: no cover - compiled
+    """Squared Mahalanobis distance of two tracks' positions with covariance ``P_a + P_b``
+    (``inf`` when the x-difference alone puts it outside the gate)."""
     dx, dy = xa[0] - xb[0], xa[2] - xb[2]
+    if dx * dx >= gate * (pa[0, 0] + pb[0, 0]):
+        return np.inf
     for r in range(2):
         for c in range(2):
             s[r, c] = pa[2 * r, 2 * c] + pb[2 * r, 2 * c]

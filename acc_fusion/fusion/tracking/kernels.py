@@ -156,11 +156,11 @@ def track_step(
     xt, ap = np.empty(DIM), np.empty((DIM, DIM))
     y, s_mat, si, work = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
     ph, kg = np.empty((DIM, 2)), np.empty((DIM, 2))
-    cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc = scratch
-    k_max = cost.shape[1] - n_slots
+    k_max = scratch[0].shape[1] - n_slots
     d2 = np.empty((n_slots, k_max))
     slots, out = np.empty(n_slots, np.int64), np.empty(n_slots, np.int64)
     used = np.empty(k_max, np.bool_)
+    zx, zy, rxx, rxy, ryy = converted(rng, azimuth, range_std, azimuth_std)
     for e in range(n_egos):
         a, b = ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], f)
         n_t = 0
@@ -180,10 +180,14 @@ def track_step(
             t = slots[i]
             for j in range(n_k):
                 k = k0 + j
-                zx, zy, rxx, rxy, ryy = converted(rng[k], azimuth[k], range_std[k], azimuth_std[k])
-                d2[i, j] = _innovation(x[e, t], p[e, t], zx, zy, rxx, rxy, ryy, y, s_mat, si, work)
-        gnn(d2, n_t, n_k, gate, out, cost, col4row, row4col, u, v, shortest, path, remaining,
-            sr, sc)  # fmt: skip
+                dx = zx[k] - x[e, t, 0]
+                if dx * dx >= gate * (p[e, t, 0, 0] + rxx[k]):  # d2 >= dx^2 / S_xx: outside
+                    d2[i, j] = np.inf
+                    continue
+                d2[i, j] = _innovation(
+                    x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], y, s_mat, si, work
+                )
+        gnn(d2, n_t, n_k, gate, out, scratch)
         for j in range(n_k):
             used[j] = False
         for i in range(n_t):
@@ -193,8 +197,7 @@ def track_step(
                 misses[e, t] += 1
                 continue
             k = k0 + j
-            zx, zy, rxx, rxy, ryy = converted(rng[k], azimuth[k], range_std[k], azimuth_std[k])
-            _innovation(x[e, t], p[e, t], zx, zy, rxx, rxy, ryy, y, s_mat, si, work)
+            _innovation(x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], y, s_mat, si, work)
             _update(x[e, t], p[e, t], y, si, ph, kg)
             used[j] = True
             detection[e, t], object_id[e, t] = k, det_object[k]
@@ -211,9 +214,8 @@ def track_step(
             if t == n_slots:
                 break
             k = k0 + j
-            zx, zy, rxx, rxy, ryy = converted(rng[k], azimuth[k], range_std[k], azimuth_std[k])
-            _birth(x[e, t], p[e, t], zx, zy, rxx, rxy, ryy, range_rate[k], range_rate_std[k],
-                   azimuth[k], vel_var)  # fmt: skip
+            _birth(x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], range_rate[k],
+                   range_rate_std[k], azimuth[k], vel_var)  # fmt: skip
             valid[e, t], confirmed[e, t] = True, m_conf <= 1
             track_id[e, t], next_id[0] = next_id[0], next_id[0] + 1
             detection[e, t], object_id[e, t] = k, det_object[k]
