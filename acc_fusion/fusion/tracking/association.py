@@ -156,7 +156,8 @@ def _associate(
     d2, free_d2 = np.empty((n_a, n_b)), np.empty((n_a, n_b))
     free_a, free_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
     mate_a, mate_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
-    out = np.empty(n_a, np.int64)
+    out, vec = np.empty(n_a, np.int64), np.empty(2)
+    keep, pending = np.empty(valid.shape[1], np.bool_), np.empty((n_a + n_b, 2), np.int64)
     s, si, work = np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
     for e in range(n_egos):
         mate_a[:] = -1
@@ -184,11 +185,11 @@ def _associate(
             if out[r] >= 0:
                 mate_a[free_a[r]], mate_b[free_b[out[r]]] = free_b[out[r]], free_a[r]
         _place(valid[e], object_id[e], pair[e], track[e], conf_a[e], id_a[e], mate_a,
-               conf_b[e], id_b[e], mate_b, next_id)  # fmt: skip
+               conf_b[e], id_b[e], mate_b, next_id, keep, pending)  # fmt: skip
         for f in range(valid.shape[1]):
             if valid[e, f]:
                 _fuse_lateral(track[e, f], x_a[e], p_a[e], x_b[e], p_b[e], lateral[e, f],
-                              lateral_cov[e, f], s, si, work)  # fmt: skip
+                              lateral_cov[e, f], vec, s, si, work)  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -225,15 +226,16 @@ def _unpaired(confirmed, mate, free):  # pragma: no cover - compiled
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _place(
-    valid, object_id, pair, track, conf_a, id_a, mate_a, conf_b, id_b, mate_b, next_id
-):  # pragma: no cover - compiled
+    valid, object_id, pair, track, conf_a, id_a, mate_a, conf_b, id_b, mate_b, next_id, keep,
+    pending,
+):  # pragma: no cover - compiled  # fmt: skip
     """One ego's objects after the association, in place: a pairing that existed keeps its
-    slot and id, the others go to free slots with new ids (module docstring)."""
+    slot and id, the others go to free slots with new ids (module docstring; ``keep (F,)``,
+    ``pending (T_a + T_b, 2)``: scratch)."""
     n_a, n_b, n_f = mate_a.size, mate_b.size, valid.size
-    keep = np.zeros(n_f, np.bool_)
-    pending = np.empty((n_a + n_b, 2), np.int64)
+    keep[:] = False
     n_p = 0
     for i in range(n_a + n_b):
         if i < n_a:
@@ -270,8 +272,9 @@ def _place(
 
 
 @njit(cache=True, inline="always")
-def _fuse_lateral(slots, x_a, p_a, x_b, p_b, out, out_cov, s, si, work):  # pragma: no cover
-    """Information-weighted ``[y, vy]`` of an object's tracks (the single track's if one)."""
+def _fuse_lateral(slots, x_a, p_a, x_b, p_b, out, out_cov, vec, s, si, work):  # pragma: no cover
+    """Information-weighted ``[y, vy]`` of an object's tracks (the single track's if one;
+    ``vec``, ``s``, ``si``, ``work``: scratch)."""
     i, j = slots[0], slots[1]
     if i < 0 or j < 0:
         x, p = (x_a[i], p_a[i]) if i >= 0 else (x_b[j], p_b[j])
@@ -280,8 +283,8 @@ def _fuse_lateral(slots, x_a, p_a, x_b, p_b, out, out_cov, s, si, work):  # prag
             for c in range(2):
                 out_cov[r, c] = p[2 + r, 2 + c]
         return
-    vec = np.zeros(2)
     for r in range(2):
+        vec[r] = 0.0
         for c in range(2):
             out_cov[r, c] = 0.0
     for x, p in ((x_a[i], p_a[i]), (x_b[j], p_b[j])):

@@ -253,11 +253,11 @@ class Tracker:
     def __init__(self, sensor: str, config: TrackerConfig, n_egos: int) -> None:
         if not isinstance(config, TrackerConfig):
             raise ConfigError(f"config must be a TrackerConfig, got {type(config).__name__}")
-        if not isinstance(n_egos, int) or n_egos < 1:
+        if not isinstance(n_egos, (int, np.integer)) or n_egos < 1:
             raise ConfigError(f"n_egos must be a whole number >= 1, got {n_egos!r}")
         self.sensor = str(sensor)
         self.config = config
-        self.n_egos = n_egos
+        self.n_egos = int(n_egos)
         c = config
         self._params = (
             float(c.q), c.gate_value, c.confirm_m, c.confirm_n, c.delete_misses,
@@ -298,7 +298,7 @@ class Tracker:
         rows = det.rows()
         widest = int(np.diff(rows).max()) if det.count else 0
         if self._scratch.cost.shape[1] < widest + self.config.max_tracks:
-            self._scratch = Scratch(self.config.max_tracks, max(widest, 2 * self._scratch_cols()))
+            self._scratch = Scratch(self.config.max_tracks, 2 * widest)
         i = self._ints
         track_step(
             self._x, self._p, self._valid, self._confirmed, i["track_id"], i["detection"],
@@ -315,9 +315,6 @@ class Tracker:
             hits=i["hits"].copy(), misses=i["misses"].copy(), age=self._age.copy(),
             object_id=i["object_id"].copy(),
         )  # fmt: skip
-
-    def _scratch_cols(self) -> int:
-        return self._scratch.cost.shape[1] - self.config.max_tracks
 
     def _check(self, detections: Detections) -> Detections:
         if not isinstance(detections, Detections):
