@@ -18,7 +18,8 @@ from acc_fusion.fusion.tracking.association import (
     TrackAssociator,
     federated_inputs,
 )
-from acc_fusion.fusion.tracking.tracker import Tracker, TrackerConfig
+from acc_fusion.fusion.tracking.tracker import Tracker, TrackerConfig, Tracks
+from acc_fusion.sensors.detections import Detections
 
 DT = 0.05
 
@@ -264,8 +265,78 @@ def test_trackers_association_and_the_federated_filter_follow_the_lead(rng):
                             scene.truth(t, e)[2][list(truth).index(lead)], abs=0.3
                         )
     assert len(errors) > 100
+    for m, trk, det in zip(meas, (t_r, t_i), (d_r, d_i), strict=True):  # the last frame's inputs
+        for k in np.flatnonzero(m.valid):
+            e, f = divmod(k, n_slots)
+            idx = trk.detection[e, fused.track[e, f, 0 if trk is t_r else 1]]
+            np.testing.assert_allclose(m.z[k], [det.x[idx], det.range_rate[idx]])
+            c, s = np.cos(det.azimuth[idx]), np.sin(det.azimuth[idx])
+            var_x = (c * det.range_std[idx]) ** 2 + (s * det.range[idx] * det.azimuth_std[idx]) ** 2
+            np.testing.assert_allclose(m.r[k], np.diag([var_x, det.range_rate_std[idx] ** 2]))
+            assert m.ghost[k] == (det.origin[idx] < 0)  # GHOST or CLUTTER
+        assert m.valid.sum() >= 4 if m.online else not m.valid.any()
     assert np.sqrt(np.mean(np.square(errors))) < 0.3
     # the pairing held (a 1 % gate miss may let a duplicate track take over once)
     assert all(1 <= len(ids) <= 2 for ids in paired_ids.values()), paired_ids
     # the vehicle that appeared in ego 1's view got its own fused object
     assert {int(o) for o in t_r.object_id[1][t_r.confirmed[1]]} == {3, 4}
+
+
+def _tracks(sensor, rows, t=0.0, n=4):
+    """Tracks of one ego from ``rows``: (slot, id, x, y, position std)."""
+    valid = np.zeros((1, n), bool)
+    ids = np.full((1, n), -1, np.int64)
+    state, cov = np.zeros((1, n, 4)), np.tile(np.eye(4), (1, n, 1, 1))
+    for slot, tid, x, y, std in rows:
+        valid[0, slot], ids[0, slot] = True, tid
+        state[0, slot] = [x, 0.0, y, 0.0]
+        cov[0, slot] = np.diag([std**2, 1.0, std**2, 1.0])
+    minus = np.full((1, n), -1, np.int64)
+    return Tracks(t, sensor, valid, valid.copy(), ids, state, cov, minus, minus + 2, minus + 1,
+                  np.zeros((1, n)), minus)  # fmt: skip
+
+
+def _objects(fused, a, b):
+    """The fused objects as {object id: (radar track id, infrared track id)}."""
+    out = {}
+    for f in np.flatnonzero(fused.valid[0]):
+        i, j = fused.track[0, f]
+        out[int(fused.object_id[0, f])] = (
+            int(a.track_id[0, i]) if i >= 0 else -1,
+            int(b.track_id[0, j]) if j >= 0 else -1,
+        )
+    return out
+
+
+def test_the_association_is_sticky_and_a_new_pairing_is_a_new_object():
+    assoc = TrackAssociator(AssociationConfig(), 1, (4, 4))
+    radar = _tracks("radar", [(0, 10, 40.0, 0.0, 0.3)])
+    # a radar-only object first
+    ir = _tracks("infrared", [])
+    assert _objects(assoc.step(radar, ir), radar, ir) == {0: (10, -1)}
+    # the camera's track 20 joins it: a new pairing, a new object
+    ir = _tracks("infrared", [(1, 20, 40.6, 0.0, 0.3)])
+    fused = assoc.step(radar, ir)
+    assert _objects(fused, radar, ir) == {1: (10, 20)}
+    slot = int(np.flatnonzero(fused.valid[0])[0])
+    # equal weights: the lateral mean of the two, half the variance
+    assert fused.lateral[0, slot, 0] == pytest.approx(0.0)
+    assert fused.lateral_cov[0, slot, 0, 0] == pytest.approx(0.09 / 2)
+    # track 21 comes closer to the radar's, but 20 still gates: the pair holds, in its slot
+    ir = _tracks("infrared", [(1, 20, 40.9, 0.0, 0.3), (2, 21, 40.0, 0.1, 0.3)])
+    fused = assoc.step(radar, ir)
+    assert _objects(fused, radar, ir) == {1: (10, 20), 2: (-1, 21)}
+    assert fused.object_id[0, slot] == 1
+    # 20 leaves the gate (d2 = 1.5^2 / 0.18 = 12.5 > 9.21): 21 pairs with 10, a new object
+    ir = _tracks("infrared", [(1, 20, 41.5, 0.0, 0.3), (2, 21, 40.0, 0.1, 0.3)])
+    fused = assoc.step(radar, ir)
+    assert _objects(fused, radar, ir) == {3: (10, 21), 4: (-1, 20)}
+    meas, target = federated_inputs(fused, (radar, ir), (_no_detections("radar"),
+                                                         _no_detections("infrared")))  # fmt: skip
+    assert sorted(target[target >= 0]) == [3, 4] and target.shape == (8,)
+    assert not meas[0].valid.any() and not meas[1].valid.any()  # no detection this frame
+
+
+def _no_detections(sensor):
+    empty, none = np.zeros(0), np.zeros(0, np.int64)
+    return Detections(0.0, sensor, 1, True, none, *(empty,) * 6, none, none.astype(np.int8))
