@@ -134,6 +134,23 @@ def test_ego_motion_compensation_keeps_a_stationary_object_still(rng, compensate
         assert len(errors) < 20 or np.mean(speeds) > 5.0  # it sees the post sweep sideways
 
 
+def test_the_ego_speed_change_is_compensated(rng):
+    """An ego speeding up at 3 m/s² passes a parked car: its relative velocity changes by 6 m/s
+    in 2 s, which the compensation takes from the ego's speeds (the track's ground speed
+    stays 0 though the model's acceleration noise is small)."""
+    scene = Scene([np.array([[5, 80.0, 3.0, 0.0, 0.0]])], np.array([15.0]), np.zeros(1),
+                  accel=np.array([3.0]))  # fmt: skip
+    tracker = Tracker("radar", TrackerConfig(q=0.05), n_egos=1)
+    ground = []
+    for i in range(40):
+        t = i * DT
+        speed = scene.speed_at(t)
+        tracks = tracker.step(detect(scene, t, "radar", rng), speed, scene.yaw_rate, DT)
+        if i >= 10:
+            ground.extend(tracks.state[tracks.confirmed][:, 1] + speed[0])
+    assert len(ground) >= 30 and abs(np.mean(ground)) < 0.3
+
+
 def test_tracks_coast_between_the_sensor_samples(rng):
     scene = _one_target(vx=-5.0)
     tracker = Tracker("infrared", TrackerConfig(max_coast=1.0), n_egos=1)

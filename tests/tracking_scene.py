@@ -12,7 +12,8 @@ from acc_fusion.sensors.detections import CLUTTER, Detections
 
 @dataclass
 class Scene:
-    """Objects in a world frame and egos driving at constant speed and yaw rate.
+    """Objects in a world frame and egos driving at constant yaw rate, and at constant speed
+    or, on a straight road, constant acceleration.
 
     ``objects[e]`` rows: ``(object_id, X0, Y0, VX, VY)`` (world position at t = 0 and ground
     velocity) for ego ``e``, which starts at the world origin heading along X.
@@ -22,6 +23,11 @@ class Scene:
     speed: np.ndarray
     yaw_rate: np.ndarray
     appear: dict[int, float] = field(default_factory=dict)  # object id -> first time seen
+    accel: np.ndarray | None = None  # (E,) [m/s²], egos with a zero yaw rate only
+
+    def speed_at(self, t: float) -> np.ndarray:
+        """``(E,)`` the egos' speeds at ``t``."""
+        return self.speed if self.accel is None else self.speed + self.accel * t
 
     @property
     def n_egos(self) -> int:
@@ -32,7 +38,9 @@ class Scene:
         w, s = self.yaw_rate, self.speed
         h = w * t
         safe = np.where(w == 0, 1.0, w)
-        x = np.where(w == 0, s * t, s * np.sin(h) / safe)
+        a = np.zeros_like(s) if self.accel is None else self.accel
+        assert not np.any((a != 0) & (w != 0)), "a turning ego keeps its speed"
+        x = np.where(w == 0, s * t + a * t * t / 2, s * np.sin(h) / safe)
         y = np.where(w == 0, 0.0, s * (1 - np.cos(h)) / safe)
         return x, y, h
 
@@ -44,8 +52,9 @@ class Scene:
         o = o[seen]
         px, py = o[:, 1] + o[:, 3] * t - ex, o[:, 2] + o[:, 4] * t - ey
         c, s = np.cos(h), np.sin(h)
-        vx = o[:, 3] - self.speed[e] * c
-        vy = o[:, 4] - self.speed[e] * s
+        speed = self.speed_at(t)[e]
+        vx = o[:, 3] - speed * c
+        vy = o[:, 4] - speed * s
         rot = (c * px + s * py, -s * px + c * py, c * vx + s * vy, -s * vx + c * vy)
         return (o[:, 0].astype(np.int64), *rot)
 
