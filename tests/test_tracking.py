@@ -16,7 +16,7 @@ from acc_fusion.fusion.tracking.assignment import Scratch, assign, gnn
 from acc_fusion.fusion.tracking.association import (
     AssociationConfig,
     TrackAssociator,
-    federated_inputs,
+    fused_measurements,
 )
 from acc_fusion.fusion.tracking.tracker import Tracker, TrackerConfig, Tracks
 from acc_fusion.sensors.detections import Detections
@@ -263,7 +263,7 @@ def test_trackers_association_and_the_federated_filter_follow_the_lead(rng):
         t_r = radar.step(d_r, scene.speed, scene.yaw_rate, DT)
         t_i = infrared.step(d_i, scene.speed, scene.yaw_rate, DT)
         fused = assoc.step(t_r, t_i)
-        meas, target = federated_inputs(fused, (t_r, t_i), (d_r, d_i))
+        meas, target = fused_measurements(fused, (t_r, t_i), (d_r, d_i))
         assert meas[1].online == (i % 2 == 0) and meas[0].z.T.flags.c_contiguous
         estimate = est.step(meas, target)
         for e, lead in ((0, 1), (1, 3)):
@@ -348,7 +348,7 @@ def test_the_association_is_sticky_and_a_new_pairing_is_a_new_object():
     ir = _tracks("infrared", [(1, 20, 41.5, 0.0, 0.3), (2, 21, 40.0, 0.1, 0.3)])
     fused = assoc.step(radar, ir)
     assert _objects(fused, radar, ir) == {3: (10, 21), 4: (-1, 20)}
-    meas, target = federated_inputs(fused, (radar, ir), (_no_detections("radar"),
+    meas, target = fused_measurements(fused, (radar, ir), (_no_detections("radar"),
                                                          _no_detections("infrared")))  # fmt: skip
     assert sorted(target[target >= 0]) == [3, 4] and target.shape == (8,)
     assert not meas[0].valid.any() and not meas[1].valid.any()  # no detection this frame

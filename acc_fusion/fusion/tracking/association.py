@@ -1,5 +1,5 @@
 r"""Track-to-track association of two sensors' trackers (:class:`TrackAssociator`) and the bridge
-that feeds each associated object to the 1-D federated filter (:func:`federated_inputs`).
+that feeds each associated object to the 1-D federated filter (:func:`fused_measurements`).
 
 Association
     Per ego, the confirmed tracks :math:`a` of one sensor (the radar) and :math:`b` of the other
@@ -32,7 +32,7 @@ Fused objects
     above), or the single track's.
 
 Bridge to the 1-D federated filter
-    :func:`federated_inputs` turns the N = E·F fused slots into the pairs of an
+    :func:`fused_measurements` turns the N = E·F fused slots into the pairs of an
     :class:`~acc_fusion.fusion.base.Estimator`: for each sensor a
     :class:`~acc_fusion.sensors.sensor.Measurement` whose pair ``e·F + f`` holds the detection
     that updated that sensor's track of the object at this frame, :math:`z = [x,\ \dot r]` with
@@ -300,7 +300,7 @@ def _fuse_lateral(slots, x_a, p_a, x_b, p_b, out, out_cov, vec, s, si, work):  #
             out_cov[r, c] = s[r, c]
 
 
-def federated_inputs(
+def fused_measurements(
     fused: FusedObjects, tracks: Sequence[Tracks], detections: Sequence[Detections]
 ) -> tuple[list[Measurement], np.ndarray]:
     """The fused objects as the N = E·F pairs of the 1-D federated filter (module docstring):
