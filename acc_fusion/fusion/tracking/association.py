@@ -54,6 +54,7 @@ from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEAS_DIM
+from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse
 from acc_fusion.fusion.tracking.assignment import Scratch, gnn
 from acc_fusion.fusion.tracking.kernels import converted
@@ -127,7 +128,7 @@ class TrackAssociator:
         for tracks, n in zip((a, b), self.max_tracks, strict=True):
             if not isinstance(tracks, Tracks) or tracks.valid.shape != (self.n_egos, n):
                 raise InputError(f"step() needs Tracks of shape ({self.n_egos}, {n})")
-        if abs(a.t - b.t) > 1e-9:
+        if abs(a.t - b.t) > TIME_TOL:
             raise InputError(f"the tracks must be of one time, got {a.t!r} and {b.t!r}")
         track = np.full((self.n_egos, self.n_slots, 2), -1, np.int64)
         lateral = np.zeros((self.n_egos, self.n_slots, 2))

@@ -222,11 +222,6 @@ class Tracks:
     age: np.ndarray
     object_id: np.ndarray
 
-    @property
-    def position_cov(self) -> np.ndarray:
-        """``(E, T, 2, 2)`` covariance of the position ``(x, y)``."""
-        return self.cov[..., ::2, ::2]
-
 
 class Tracker:
     """A multi-target tracker of one sensor over E egos (the model: module docstring).
