@@ -1,0 +1,163 @@
+r"""Optimal 2-D assignment and global-nearest-neighbour (GNN) association, compiled.
+
+:func:`assign` solves the rectangular linear assignment problem: given an ``(n_r, n_c)`` cost
+matrix with :math:`n_r \le n_c`, find the column :math:`c(i)` of every row, all different,
+minimising :math:`\sum_i C_{i, c(i)}`; an entry of ``inf`` is a forbidden pairing.  The
+method is the shortest augmenting path algorithm of Jonker & Volgenant (1987) in the form of
+Crouse, "On implementing 2D rectangular assignment algorithms", *IEEE Trans. Aerospace and
+Electronic Systems* 52(4), 2016, which is also what :func:`scipy.optimize.linear_sum_assignment`
+runs; it is written here for numba so that a tracker solves the problems of hundreds of egos in
+one compiled call.  Each row is added by one Dijkstra search for the cheapest augmenting path on
+the reduced costs :math:`C_{ij} - u_i - v_j`, after which the dual variables are updated
+(Crouse 2016, Algorithm 1 with the updates of §IV).
+
+:func:`gnn` is the GNN data association of Blackman & Popoli, *Design and Analysis of Modern
+Tracking Systems* (1999), §6.5: rows (tracks) are assigned to columns (detections, or another
+sensor's tracks) by minimising the total squared Mahalanobis distance :math:`d^2_{ij}`, where a
+pair outside the chi-square gate, :math:`d^2_{ij} \ge \gamma`, is forbidden and every row may
+instead be left unassigned at the cost :math:`\gamma` of a missed detection.  The cost matrix is
+the one of Stone Soup's ``GNNWith2DAssignment`` with a ``DistanceHypothesiser`` whose
+``missed_distance`` is :math:`\gamma`:
+
+.. math::
+
+    C = \left[\; D \;\middle|\; \operatorname{diag}(\gamma, \ldots, \gamma)
+        \text{ with } \infty \text{ off the diagonal} \;\right],
+    \qquad D_{ij} = \begin{cases} d^2_{ij} & d^2_{ij} < \gamma \\ \infty & \text{else.}
+    \end{cases}
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def assign(
+    cost, n_r, n_c, col4row, row4col, u, v, shortest, path, remaining, sr, sc
+):  # pragma: no cover - compiled
+    """Solve the assignment of the leading ``(n_r, n_c)`` block of ``cost`` (``n_r <= n_c``).
+
+    Writes ``col4row[:n_r]`` (the column of each row) and ``row4col[:n_c]`` (the row of each
+    column, -1 if none); returns False if no assignment of finite cost exists.  ``u (n_r,)``,
+    ``v``, ``shortest``, ``path``, ``remaining``, ``sc (n_c,)`` and ``sr (n_r,)`` are scratch
+    (at least that long), so a caller solving many problems allocates once.
+    """
+    for i in range(n_r):
+        u[i] = 0.0
+        col4row[i] = -1
+    for j in range(n_c):
+        v[j] = 0.0
+        row4col[j] = -1
+        path[j] = -1
+    for cur in range(n_r):
+        for j in range(n_c):
+            remaining[j] = n_c - j - 1
+            shortest[j] = np.inf
+            sc[j] = False
+        for i in range(n_r):
+            sr[i] = False
+        n_rem, min_val, i, sink = n_c, 0.0, cur, -1
+        while sink == -1:  # Dijkstra on the reduced costs
+            index, lowest = -1, np.inf
+            sr[i] = True
+            for it in range(n_rem):
+                j = remaining[it]
+                reduced = min_val + cost[i, j] - u[i] - v[j]
+                if reduced < shortest[j]:
+                    path[j] = i
+                    shortest[j] = reduced
+                if shortest[j] < lowest or (shortest[j] == lowest and row4col[j] == -1):
+                    lowest = shortest[j]
+                    index = it
+            min_val = lowest
+            if min_val == np.inf:
+                return False
+            j = remaining[index]
+            if row4col[j] == -1:
+                sink = j
+            else:
+                i = row4col[j]
+            sc[j] = True
+            n_rem -= 1
+            remaining[index] = remaining[n_rem]
+        u[cur] += min_val  # dual update
+        for r in range(n_r):
+            if sr[r] and r != cur:
+                u[r] += min_val - shortest[col4row[r]]
+        for j in range(n_c):
+            if sc[j]:
+                v[j] -= min_val - shortest[j]
+        j = sink  # augment along the path
+        while True:
+            r = path[j]
+            row4col[j] = r
+            previous = col4row[r]
+            col4row[r] = j
+            j = previous
+            if r == cur:
+                break
+    return True
+
+
+class Scratch:
+    """Work arrays of :func:`gnn` for problems of up to ``rows`` rows and ``cols`` columns."""
+
+    def __init__(self, rows: int, cols: int) -> None:
+        width = cols + rows
+        self.cost = np.empty((rows, width))
+        self.col4row = np.empty(rows, dtype=np.int64)
+        self.row4col = np.empty(width, dtype=np.int64)
+        self.u = np.empty(rows)
+        self.v, self.shortest = np.empty(width), np.empty(width)
+        self.path, self.remaining = np.empty(width, np.int64), np.empty(width, np.int64)
+        self.sr, self.sc = np.empty(rows, np.bool_), np.empty(width, np.bool_)
+        self.rows, self.cols = np.empty(rows, np.int64), np.empty(width, np.int64)
+
+    def arrays(self) -> tuple:
+        """The arrays as :func:`gnn` takes them."""
+        return (
+            self.cost, self.col4row, self.row4col, self.u, self.v, self.shortest, self.path,
+            self.remaining, self.sr, self.sc, self.rows, self.cols,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def gnn(d2, n_r, n_c, gate, out, scratch):  # pragma: no cover - compiled
+    r"""GNN assignment of the leading ``(n_r, n_c)`` block of the squared distances ``d2``
+    (module docstring): ``out[i]`` receives the column of row ``i`` or -1 (missed);
+    ``scratch``: :meth:`Scratch.arrays`.
+
+    Only the rows and columns with a pair inside the gate enter the assignment (a row without
+    one is missed, a column without one unassigned in every optimal solution), which keeps the
+    problems small when most objects are isolated."""
+    cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc, rows, cols = scratch
+    m_r, m_c = 0, 0
+    for j in range(n_c):
+        sc[j] = False
+    for i in range(n_r):
+        out[i] = -1
+        gated = False
+        for j in range(n_c):
+            if d2[i, j] < gate:
+                gated = True
+                sc[j] = True
+        if gated:
+            rows[m_r] = i
+            m_r += 1
+    for j in range(n_c):
+        if sc[j]:
+            cols[m_c] = j
+            m_c += 1
+    width = m_c + m_r
+    for a in range(m_r):
+        for b in range(m_c):
+            d = d2[rows[a], cols[b]]
+            cost[a, b] = d if d < gate else np.inf
+        for b in range(m_c, width):
+            cost[a, b] = gate if b - m_c == a else np.inf
+    assign(cost, m_r, width, col4row, row4col, u, v, shortest, path, remaining, sr, sc)
+    for a in range(m_r):
+        if col4row[a] < m_c:
+            out[rows[a]] = cols[col4row[a]]

@@ -1,0 +1,338 @@
+r"""Track-to-track association of two sensors' trackers (:class:`TrackAssociator`) and the bridge
+that feeds each associated object to the 1-D federated filter (:func:`fused_measurements`).
+
+Association
+    Per ego, the confirmed tracks :math:`a` of one sensor (the radar) and :math:`b` of the other
+    (the infrared camera) are compared by the squared Mahalanobis distance of their positions
+
+    .. math::
+
+        d^2_{ab} = (\mathbf p_a - \mathbf p_b)^\top (P_a + P_b)^{-1} (\mathbf p_a - \mathbf p_b),
+
+    the test statistic of Bar-Shalom, "On the track-to-track correlation problem", *IEEE
+    Trans. Automatic Control* 26(2), 1981, *without* its cross-covariance term
+    :math:`-P_{ab} - P_{ba}`: the two tracks' errors are treated as independent, although they
+    share the object's process noise (so :math:`d^2` is somewhat smaller than the exact
+    statistic and the gate somewhat wider than its nominal probability).  Both trackers are
+    advanced to the same frame time (the slower sensor's tracks are predicted between its
+    samples), so the positions are synchronous.  Pairs with :math:`d^2 \ge \gamma` (the
+    chi-square gate of 2 degrees of freedom) are excluded, and the others assigned by GNN
+    (:mod:`acc_fusion.fusion.tracking.assignment`, a track left single costing :math:`\gamma`).
+    The association is *sticky*: a pair associated at the previous frame stays paired, without
+    competing in the assignment, while it still gates; the others compete for the rest.
+
+Fused objects
+    Every pair and every confirmed track left single is a fused object in one of
+    :math:`F = T_a + T_b` slots per ego (never too few).  An object keeps its slot and its id as
+    long as its pairing — the two track ids, or one id and none — is unchanged; a new pairing
+    (a track joins, leaves or is replaced) is a new object with a new id (never reused) in a
+    free slot.  Its lateral position and velocity :math:`[y, v_y]` are the information-weighted
+    mean of its tracks', :math:`P = (P_a^{-1} + P_b^{-1})^{-1}`, :math:`\hat{\mathbf x} = P
+    (P_a^{-1}\hat{\mathbf x}_a + P_b^{-1}\hat{\mathbf x}_b)` (independent errors assumed, as
+    above), or the single track's.
+
+Bridge to the 1-D federated filter
+    :func:`fused_measurements` turns the N = E·F fused slots into the pairs of an
+    :class:`~acc_fusion.fusion.base.Estimator`: for each sensor a
+    :class:`~acc_fusion.sensors.sensor.Measurement` whose pair ``e·F + f`` holds the detection
+    that updated that sensor's track of the object at this frame, :math:`z = [x,\ \dot r]` with
+    :math:`x = r\cos\theta` and :math:`R = \operatorname{diag}(R_{z,xx},\ \sigma_{\dot r}^2)`
+    (the converted covariance's x-variance and the declared range-rate variance), and the
+    fused object's id as ``target_id`` (-1 in an empty slot).  So the federated filter, its
+    fault detection included, fuses every associated object unchanged, and re-initialises a
+    slot's filters when it gets a new object id.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numba import njit
+
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.motion import MEAS_DIM
+from acc_fusion.core.units import TIME_TOL
+from acc_fusion.filters.kalman import _inverse
+from acc_fusion.fusion.tracking.assignment import Scratch, gnn
+from acc_fusion.fusion.tracking.kernels import converted
+from acc_fusion.fusion.tracking.tracker import GateConfig, Tracks
+from acc_fusion.sensors.detections import CLUTTER, GHOST, Detections
+from acc_fusion.sensors.sensor import Measurement
+
+
+@dataclass(frozen=True)
+class AssociationConfig(GateConfig):
+    """Settings of the :class:`TrackAssociator`: the gate of two tracks of one object
+    (:class:`~acc_fusion.fusion.tracking.tracker.GateConfig`, default :math:`P_G = 0.99`)."""
+
+    _NAME: ClassVar[str] = "association"
+
+
+@dataclass(frozen=True)
+class FusedObjects:
+    """The objects of E egos after associating two sensors' tracks, in ``(E, F)`` slots.
+
+    Attributes:
+        t: frame time [s].
+        sensors: the two sensors' names, in the order of ``track``'s last axis.
+        valid: ``(E, F)`` bool, the slot holds an object.
+        object_id: ``(E, F)`` int64, the object's id (new whenever its pairing changes), -1 in
+            an empty slot.
+        track: ``(E, F, 2)`` int64, the slot of each sensor's track in its
+            :class:`~acc_fusion.fusion.tracking.tracker.Tracks`, -1 if that sensor has none.
+        lateral: ``(E, F, 2)`` fused ``[y, vy]`` [m, m/s].
+        lateral_cov: ``(E, F, 2, 2)`` its covariance.
+    """
+
+    t: float
+    sensors: tuple[str, str]
+    valid: np.ndarray
+    object_id: np.ndarray
+    track: np.ndarray
+    lateral: np.ndarray
+    lateral_cov: np.ndarray
+
+
+class TrackAssociator:
+    """Sticky GNN association of two sensors' confirmed tracks (module docstring).
+
+    Args:
+        config: the :class:`AssociationConfig`.
+        n_egos: number of egos E.
+        max_tracks: the two trackers' ``max_tracks`` ``(T_a, T_b)``; ``F = T_a + T_b``.
+    """
+
+    def __init__(self, config: AssociationConfig, n_egos: int, max_tracks: tuple[int, int]):
+        if not isinstance(config, AssociationConfig):
+            raise ConfigError(f"config must be an AssociationConfig, got {type(config).__name__}")
+        self.config = config
+        self.n_egos = int(n_egos)
+        self.max_tracks = (int(max_tracks[0]), int(max_tracks[1]))
+        self.n_slots = sum(self.max_tracks)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every object (ids continue to count up)."""
+        shape = (self.n_egos, self.n_slots)
+        self._valid = np.zeros(shape, bool)
+        self._object_id = np.full(shape, -1, np.int64)
+        self._pair = np.full(shape + (2,), -1, np.int64)  # the objects' track ids
+        self._next_id = getattr(self, "_next_id", np.zeros(1, np.int64))
+        self._scratch = Scratch(*self.max_tracks)
+
+    def step(self, a: Tracks, b: Tracks) -> FusedObjects:
+        """Associate the two trackers' tracks of one frame (``a`` and ``b`` at the same time)."""
+        for tracks, n in zip((a, b), self.max_tracks, strict=True):
+            if not isinstance(tracks, Tracks) or tracks.valid.shape != (self.n_egos, n):
+                raise InputError(f"step() needs Tracks of shape ({self.n_egos}, {n})")
+        if abs(a.t - b.t) > TIME_TOL:
+            raise InputError(f"the tracks must be of one time, got {a.t!r} and {b.t!r}")
+        track = np.full((self.n_egos, self.n_slots, 2), -1, np.int64)
+        lateral = np.zeros((self.n_egos, self.n_slots, 2))
+        lateral_cov = np.zeros((self.n_egos, self.n_slots, 2, 2))
+        _associate(
+            a.confirmed, a.track_id, a.state, a.cov, b.confirmed, b.track_id, b.state, b.cov,
+            self.config.gate_value, self._valid, self._object_id, self._pair, self._next_id,
+            track, lateral, lateral_cov, self._scratch.arrays(),
+        )  # fmt: skip
+        return FusedObjects(
+            a.t, (a.sensor, b.sensor), self._valid.copy(), self._object_id.copy(), track,
+            lateral, lateral_cov,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _associate(
+    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, next_id,
+    track, lateral, lateral_cov, scratch,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:meth:`TrackAssociator.step` of every ego, in place on the objects' ``valid``,
+    ``object_id`` and ``pair`` (their two track ids); writes ``track``, ``lateral`` and
+    ``lateral_cov``."""
+    n_egos, n_a = conf_a.shape
+    n_b = conf_b.shape[1]
+    d2, free_d2 = np.empty((n_a, n_b)), np.empty((n_a, n_b))
+    free_a, free_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
+    mate_a, mate_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
+    out, vec = np.empty(n_a, np.int64), np.empty(2)
+    keep, pending = np.empty(valid.shape[1], np.bool_), np.empty((n_a + n_b, 2), np.int64)
+    s, si, work = np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
+    for e in range(n_egos):
+        mate_a[:] = -1
+        mate_b[:] = -1
+        for i in range(n_a):
+            for j in range(n_b):
+                d2[i, j] = np.inf
+                if conf_a[e, i] and conf_b[e, j]:
+                    d2[i, j] = _distance(
+                        x_a[e, i], p_a[e, i], x_b[e, j], p_b[e, j], gate, s, si, work
+                    )
+        for f in range(valid.shape[1]):  # sticky: the last frame's pairs that still gate
+            if valid[e, f] and pair[e, f, 0] >= 0 and pair[e, f, 1] >= 0:
+                i = _find(conf_a[e], id_a[e], pair[e, f, 0])
+                j = _find(conf_b[e], id_b[e], pair[e, f, 1])
+                if i >= 0 and j >= 0 and d2[i, j] < gate:
+                    mate_a[i], mate_b[j] = j, i
+        n_r = _unpaired(conf_a[e], mate_a, free_a)
+        n_c = _unpaired(conf_b[e], mate_b, free_b)
+        for r in range(n_r):
+            for c in range(n_c):
+                free_d2[r, c] = d2[free_a[r], free_b[c]]
+        gnn(free_d2, n_r, n_c, gate, out, scratch)
+        for r in range(n_r):
+            if out[r] >= 0:
+                mate_a[free_a[r]], mate_b[free_b[out[r]]] = free_b[out[r]], free_a[r]
+        _place(valid[e], object_id[e], pair[e], track[e], conf_a[e], id_a[e], mate_a,
+               conf_b[e], id_b[e], mate_b, next_id, keep, pending)  # fmt: skip
+        for f in range(valid.shape[1]):
+            if valid[e, f]:
+                _fuse_lateral(track[e, f], x_a[e], p_a[e], x_b[e], p_b[e], lateral[e, f],
+                              lateral_cov[e, f], vec, s, si, work)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _distance(xa, pa, xb, pb, gate, s, si, work):  # pragma: no cover - compiled
+    """Squared Mahalanobis distance of two tracks' positions with covariance ``P_a + P_b``
+    (``inf`` when the x-difference alone puts it outside the gate)."""
+    dx, dy = xa[0] - xb[0], xa[2] - xb[2]
+    if dx * dx >= gate * (pa[0, 0] + pb[0, 0]):
+        return np.inf
+    for r in range(2):
+        for c in range(2):
+            s[r, c] = pa[2 * r, 2 * c] + pb[2 * r, 2 * c]
+    _inverse(s, si, work, 2)
+    return dx * (si[0, 0] * dx + si[0, 1] * dy) + dy * (si[1, 0] * dx + si[1, 1] * dy)
+
+
+@njit(cache=True, inline="always")
+def _find(confirmed, ids, wanted):  # pragma: no cover - compiled
+    """The slot of the confirmed track ``wanted``, -1 if there is none."""
+    for i in range(ids.size):
+        if confirmed[i] and ids[i] == wanted:
+            return i
+    return -1
+
+
+@njit(cache=True, inline="always")
+def _unpaired(confirmed, mate, free):  # pragma: no cover - compiled
+    """Put the slots of the confirmed tracks without a mate in ``free``; return how many."""
+    n = 0
+    for i in range(mate.size):
+        if confirmed[i] and mate[i] < 0:
+            free[n] = i
+            n += 1
+    return n
+
+
+@njit(cache=True, inline="always")
+def _place(
+    valid, object_id, pair, track, conf_a, id_a, mate_a, conf_b, id_b, mate_b, next_id, keep,
+    pending,
+):  # pragma: no cover - compiled  # fmt: skip
+    """One ego's objects after the association, in place: a pairing that existed keeps its
+    slot and id, the others go to free slots with new ids (module docstring; ``keep (F,)``,
+    ``pending (T_a + T_b, 2)``: scratch)."""
+    n_a, n_b, n_f = mate_a.size, mate_b.size, valid.size
+    keep[:] = False
+    n_p = 0
+    for i in range(n_a + n_b):
+        if i < n_a:
+            if not conf_a[i]:
+                continue
+            ia, ib = i, mate_a[i]
+        else:
+            if not conf_b[i - n_a] or mate_b[i - n_a] >= 0:
+                continue
+            ia, ib = -1, i - n_a
+        key_a = id_a[ia] if ia >= 0 else -1
+        key_b = id_b[ib] if ib >= 0 else -1
+        found = False
+        for f in range(n_f):
+            if valid[f] and not keep[f] and pair[f, 0] == key_a and pair[f, 1] == key_b:
+                keep[f], found = True, True
+                track[f, 0], track[f, 1] = ia, ib
+                break
+        if not found:
+            pending[n_p, 0], pending[n_p, 1] = ia, ib
+            n_p += 1
+    for f in range(n_f):
+        if not keep[f]:
+            valid[f], object_id[f], pair[f, 0], pair[f, 1] = False, -1, -1, -1
+    f = 0
+    for k in range(n_p):
+        while valid[f]:
+            f += 1
+        ia, ib = pending[k, 0], pending[k, 1]
+        valid[f], object_id[f], next_id[0] = True, next_id[0], next_id[0] + 1
+        pair[f, 0] = id_a[ia] if ia >= 0 else -1
+        pair[f, 1] = id_b[ib] if ib >= 0 else -1
+        track[f, 0], track[f, 1] = ia, ib
+
+
+@njit(cache=True, inline="always")
+def _fuse_lateral(slots, x_a, p_a, x_b, p_b, out, out_cov, vec, s, si, work):  # pragma: no cover
+    """Information-weighted ``[y, vy]`` of an object's tracks (the single track's if one;
+    ``vec``, ``s``, ``si``, ``work``: scratch)."""
+    i, j = slots[0], slots[1]
+    if i < 0 or j < 0:
+        x, p = (x_a[i], p_a[i]) if i >= 0 else (x_b[j], p_b[j])
+        for r in range(2):
+            out[r] = x[2 + r]
+            for c in range(2):
+                out_cov[r, c] = p[2 + r, 2 + c]
+        return
+    for r in range(2):
+        vec[r] = 0.0
+        for c in range(2):
+            out_cov[r, c] = 0.0
+    for x, p in ((x_a[i], p_a[i]), (x_b[j], p_b[j])):
+        _inverse(p[2:, 2:], si, work, 2)
+        for r in range(2):
+            for c in range(2):
+                out_cov[r, c] += si[r, c]
+                vec[r] += si[r, c] * x[2 + c]
+    _inverse(out_cov, s, work, 2)
+    for r in range(2):
+        out[r] = s[r, 0] * vec[0] + s[r, 1] * vec[1]
+        for c in range(2):
+            out_cov[r, c] = s[r, c]
+
+
+def fused_measurements(
+    fused: FusedObjects, tracks: Sequence[Tracks], detections: Sequence[Detections]
+) -> tuple[list[Measurement], np.ndarray]:
+    """The fused objects as the N = E·F pairs of the 1-D federated filter (module docstring):
+    one :class:`~acc_fusion.sensors.sensor.Measurement` per sensor, in the order of
+    ``fused.sensors``, and ``target_id (N,)``, for ``Estimator.step(measurements, target_id)``.
+
+    ``tracks`` and ``detections`` are the two sensors' of this frame, in the same order.
+    """
+    e, f = fused.valid.shape
+    n = e * f
+    ego = np.repeat(np.arange(e), f)
+    target = np.where(fused.valid, fused.object_id, -1).reshape(n)
+    out = []
+    for s, (trk, det) in enumerate(zip(tracks, detections, strict=True)):
+        if trk.sensor != fused.sensors[s] or det.sensor != fused.sensors[s]:
+            raise InputError(f"tracks and detections must be given in the order {fused.sensors}")
+        slot = fused.track[..., s].reshape(n)
+        k = np.full(n, -1, np.int64)
+        has = slot >= 0
+        k[has] = trk.detection[ego[has], slot[has]]
+        valid = k >= 0
+        kv = k[valid]
+        x, _, rxx, _, _ = converted(det.range[kv], det.azimuth[kv], det.range_std[kv],
+                                    det.azimuth_std[kv])  # fmt: skip
+        z = np.full((MEAS_DIM, n), np.nan)
+        z[0, valid], z[1, valid] = x, det.range_rate[kv]
+        r = np.zeros((MEAS_DIM, MEAS_DIM, n))
+        r[0, 0], r[1, 1] = 1.0, 1.0
+        r[0, 0, valid], r[1, 1, valid] = rxx, det.range_rate_std[kv] ** 2
+        ghost = np.zeros(n, bool)
+        ghost[valid] = np.isin(det.origin[kv], (GHOST, CLUTTER))
+        out.append(Measurement(det.t, det.sensor, z.T, r.transpose(2, 0, 1), valid, ghost,
+                               bool(det.online)))  # fmt: skip
+    return out, target

@@ -1,0 +1,243 @@
+r"""The compiled frame step of :class:`~acc_fusion.fusion.tracking.tracker.Tracker`: ego-motion
+compensation, Kalman prediction, gating, GNN assignment, update, M-of-N confirmation, deletion
+and track birth for every ego in one call (the equations:
+:mod:`~acc_fusion.fusion.tracking.tracker`).  A set of numba kernels that must stay together:
+the frame step inlines the others.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from acc_fusion.core.units import TIME_TOL
+from acc_fusion.filters.kalman import _inverse
+from acc_fusion.fusion.tracking.assignment import gnn
+
+#: State dimension [x, vx, y, vy] and the indices of the position components.
+DIM = 4
+POS = (0, 2)
+
+
+@njit(cache=True)
+def converted(rng, azimuth, range_std, azimuth_std):  # pragma: no cover - compiled
+    r"""Converted measurement of polar detections (scalars or arrays): ``x, y`` and the
+    covariance entries ``rxx, rxy, ryy`` of :math:`J\,\mathrm{diag}(\sigma_r^2,
+    \sigma_\theta^2)\,J^\top` (module docstring of the tracker)."""
+    c, s = np.cos(azimuth), np.sin(azimuth)
+    vr, va = range_std**2, (rng * azimuth_std) ** 2
+    return rng * c, rng * s, c * c * vr + s * s * va, c * s * (vr - va), s * s * vr + c * c * va
+
+
+@njit(cache=True)
+def cv_model(dt, q):  # pragma: no cover - compiled
+    r"""Transition :math:`F` and process noise :math:`Q` of the constant-velocity model of state
+    ``[x, vx, y, vy]`` over ``dt`` with spectral density ``q`` per axis."""
+    f, qm = np.eye(DIM), np.zeros((DIM, DIM))
+    for a in POS:
+        f[a, a + 1] = dt
+        qm[a, a] = q * dt**3 / 3.0
+        qm[a, a + 1] = qm[a + 1, a] = q * dt**2 / 2.0
+        qm[a + 1, a + 1] = q * dt
+    return f, qm
+
+
+@njit(cache=True)
+def ego_transform(dt, speed0, speed1, yaw_rate, f):  # pragma: no cover - compiled
+    r"""The affine map :math:`x \mapsto A x + b` of a track's state over one step: the ego-motion
+    compensation :math:`x_c = T x + c` followed by the CV transition, :math:`A = F T`,
+    :math:`b = F c` (tracker module docstring); ``speed0``/``speed1``: the ego's speed at the
+    start/end of the step."""
+    phi = yaw_rate * dt
+    cs, sn = np.cos(phi), np.sin(phi)
+    if abs(phi) < 1e-6:  # the arc's chord, to second order
+        along, side = 1.0 - phi * phi / 6.0, phi / 2.0
+    else:
+        along, side = sn / phi, (1.0 - cs) / phi
+    step = 0.5 * (speed0 + speed1) * dt
+    dx, dy = step * along, step * side
+    t = np.zeros((DIM, DIM))
+    for a in range(2):  # R(-phi) on the positions and on the velocities
+        t[a, a] = cs
+        t[a, a + 2] = sn
+        t[a + 2, a] = -sn
+        t[a + 2, a + 2] = cs
+    c = np.empty(DIM)
+    c[0] = -(cs * dx + sn * dy) + speed1 * dt
+    c[1] = cs * speed0 - speed1
+    c[2] = -(-sn * dx + cs * dy)
+    c[3] = -sn * speed0
+    return f @ t, f @ c
+
+
+@njit(cache=True, inline="always")
+def _propagate(x, p, a, b, q, xt, ap):  # pragma: no cover - compiled
+    """``x = A x + b``, ``P = A P A^T + Q`` in place (``xt``, ``ap``: scratch)."""
+    for i in range(DIM):
+        s = b[i]
+        for j in range(DIM):
+            s += a[i, j] * x[j]
+        xt[i] = s
+    for i in range(DIM):
+        x[i] = xt[i]
+        for j in range(DIM):
+            s = 0.0
+            for m in range(DIM):
+                s += a[i, m] * p[m, j]
+            ap[i, j] = s
+    for i in range(DIM):
+        for j in range(DIM):
+            s = q[i, j]
+            for m in range(DIM):
+                s += ap[i, m] * a[j, m]
+            p[i, j] = s
+
+
+@njit(cache=True, inline="always")
+def _innovation(x, p, zx, zy, rxx, rxy, ryy, y, s_mat, si, work):  # pragma: no cover
+    """Innovation ``y``, its covariance's inverse ``si`` for the measurement ``(zx, zy)`` of the
+    position; returns the squared Mahalanobis distance."""
+    y[0], y[1] = zx - x[0], zy - x[2]
+    s_mat[0, 0] = p[0, 0] + rxx
+    s_mat[0, 1] = p[0, 2] + rxy
+    s_mat[1, 0] = p[2, 0] + rxy
+    s_mat[1, 1] = p[2, 2] + ryy
+    _inverse(s_mat, si, work, 2)
+    return y[0] * (si[0, 0] * y[0] + si[0, 1] * y[1]) + y[1] * (si[1, 0] * y[0] + si[1, 1] * y[1])
+
+
+@njit(cache=True, inline="always")
+def _update(x, p, y, si, ph, kg):  # pragma: no cover - compiled
+    """Kalman update in place with the innovation ``y`` and its inverse covariance ``si``:
+    :math:`K = P H^\\top S^{-1}`, :math:`x \\mathrel{+}= K y`, :math:`P \\mathrel{-}= K H P`."""
+    for i in range(DIM):
+        ph[i, 0], ph[i, 1] = p[i, 0], p[i, 2]
+    for i in range(DIM):
+        for b in range(2):
+            kg[i, b] = ph[i, 0] * si[0, b] + ph[i, 1] * si[1, b]
+    for i in range(DIM):
+        x[i] += kg[i, 0] * y[0] + kg[i, 1] * y[1]
+    for i in range(DIM):
+        for j in range(i, DIM):
+            v = p[i, j] - (kg[i, 0] * ph[j, 0] + kg[i, 1] * ph[j, 1])
+            p[i, j] = v
+            p[j, i] = v
+
+
+@njit(cache=True, inline="always")
+def _birth(x, p, zx, zy, rxx, rxy, ryy, rr, rr_std, azimuth, vel_var):  # pragma: no cover
+    """A new track's state and covariance from one detection (tracker module docstring)."""
+    c, s = np.cos(azimuth), np.sin(azimuth)
+    vr = rr_std**2
+    for i in range(DIM):
+        for j in range(DIM):
+            p[i, j] = 0.0
+    x[0], x[1], x[2], x[3] = zx, rr * c, zy, rr * s
+    p[0, 0], p[0, 2], p[2, 0], p[2, 2] = rxx, rxy, rxy, ryy
+    p[1, 1] = c * c * vr + s * s * vel_var
+    p[1, 3] = p[3, 1] = c * s * (vr - vel_var)
+    p[3, 3] = s * s * vr + c * c * vel_var
+
+
+@njit(cache=True)
+def track_step(
+    x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
+    rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, det_object, online,
+    speed0, speed1, yaw_rate, dt, params, next_id, scratch,
+):  # pragma: no cover - compiled  # fmt: skip
+    """One frame of every ego's tracks, in place (slot arrays ``(E, T, ...)``; the frame's
+    detections flat, ego ``e``'s in ``rows[e]:rows[e + 1]``).  ``params``: ``(q, gate,
+    confirm_m, confirm_n, delete_misses, max_coast, init_velocity_var)``; ``next_id[0]``: the
+    next unused track id; ``scratch``: :meth:`~acc_fusion.fusion.tracking.assignment.Scratch.arrays`
+    for ``T`` rows and the most detections of an ego."""
+    q, gate, m_conf, n_conf, max_misses, max_coast, vel_var = params
+    n_egos, n_slots = valid.shape
+    f, qm = cv_model(dt, q)
+    xt, ap = np.empty(DIM), np.empty((DIM, DIM))
+    y, s_mat, si, work = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
+    ph, kg = np.empty((DIM, 2)), np.empty((DIM, 2))
+    k_max = scratch[0].shape[1] - n_slots
+    d2 = np.empty((n_slots, k_max))
+    slots, out = np.empty(n_slots, np.int64), np.empty(n_slots, np.int64)
+    used = np.empty(k_max, np.bool_)
+    zx, zy, rxx, rxy, ryy = converted(rng, azimuth, range_std, azimuth_std)
+    for e in range(n_egos):
+        a, b = ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], f)
+        n_t = 0
+        for t in range(n_slots):
+            detection[e, t] = -1
+            if valid[e, t]:
+                _propagate(x[e, t], p[e, t], a, b, qm, xt, ap)
+                age[e, t] += dt
+                coast[e, t] += dt
+                slots[n_t] = t
+                n_t += 1
+        if not online:  # between samples: prediction only, nothing counted
+            _manage(valid, confirmed, hits, misses, scans, coast, e, params)
+            continue
+        k0, n_k = rows[e], rows[e + 1] - rows[e]
+        for i in range(n_t):
+            t = slots[i]
+            for j in range(n_k):
+                k = k0 + j
+                dx = zx[k] - x[e, t, 0]
+                if dx * dx >= gate * (p[e, t, 0, 0] + rxx[k]):  # d2 >= dx^2 / S_xx: outside
+                    d2[i, j] = np.inf
+                    continue
+                d2[i, j] = _innovation(
+                    x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], y, s_mat, si, work
+                )
+        gnn(d2, n_t, n_k, gate, out, scratch)
+        for j in range(n_k):
+            used[j] = False
+        for i in range(n_t):
+            t, j = slots[i], out[i]
+            scans[e, t] += 1
+            if j < 0:
+                misses[e, t] += 1
+                continue
+            k = k0 + j
+            _innovation(x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], y, s_mat, si, work)
+            _update(x[e, t], p[e, t], y, si, ph, kg)
+            used[j] = True
+            detection[e, t], object_id[e, t] = k, det_object[k]
+            hits[e, t] += 1
+            misses[e, t] = 0
+            coast[e, t] = 0.0
+        _manage(valid, confirmed, hits, misses, scans, coast, e, params)
+        t = 0
+        for j in range(n_k):  # unassigned detections start tentative tracks in free slots
+            if used[j]:
+                continue
+            while t < n_slots and valid[e, t]:
+                t += 1
+            if t == n_slots:
+                break
+            k = k0 + j
+            _birth(x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], range_rate[k],
+                   range_rate_std[k], azimuth[k], vel_var)  # fmt: skip
+            valid[e, t], confirmed[e, t] = True, m_conf <= 1
+            track_id[e, t], next_id[0] = next_id[0], next_id[0] + 1
+            detection[e, t], object_id[e, t] = k, det_object[k]
+            hits[e, t], misses[e, t], scans[e, t] = 1, 0, 1
+            age[e, t], coast[e, t] = 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def _manage(valid, confirmed, hits, misses, scans, coast, e, params):  # pragma: no cover
+    """M-of-N confirmation and deletion of ego ``e``'s tracks (tracker module docstring)."""
+    m_conf, n_conf, max_misses, max_coast = params[2], params[3], params[4], params[5]
+    for t in range(valid.shape[1]):
+        if not valid[e, t]:
+            continue
+        if not confirmed[e, t]:
+            if hits[e, t] >= m_conf:
+                confirmed[e, t] = True
+            elif hits[e, t] + n_conf - scans[e, t] < m_conf:
+                valid[e, t] = False
+        if confirmed[e, t] and misses[e, t] >= max_misses:
+            valid[e, t] = False
+        if coast[e, t] > max_coast + TIME_TOL:
+            valid[e, t] = False
+        if not valid[e, t]:
+            confirmed[e, t] = False
