@@ -5,6 +5,11 @@ every test of the module."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -18,7 +23,8 @@ from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects  # noqa
 from acc_fusion.truth.sumo.roadside import (  # noqa: E402
     ROADSIDE_ID_BASE,
     RoadsideConfig,
-    _vertex_curvature,
+    _lane_geometry,
+    curvature_at,
     place_roadside,
 )
 from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
@@ -154,6 +160,47 @@ def test_ids_are_stable_and_positions_continue_over_steps(run):
         assert matched > 1000
 
 
+def test_the_compiled_reader_and_libsumo_s_getters_give_the_same_frames():
+    frames = []
+    for native in (True, False):
+        config = SumoConfig(str(bundled_nets()["motorway"]), end=20, seed=5, native=native)
+        with SumoSource(config) as src:
+            objects = SumoObjects(src, ObjectFieldConfig(ahead=120.0, lateral=8.0))
+            assert (objects._native is not None) == native
+            for _ in range(150):
+                src.advance()
+                frame = objects.frame()
+            frames.append(frame)
+    a, b = frames
+    assert a.valid.sum() > 100 and np.all(a.x[a.valid] <= 120) and np.all(np.abs(a.y[a.valid]) <= 8)
+    for name in ObjectFrame.__dataclass_fields__:
+        assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
+
+
+def test_on_the_ring_curvature_and_yaw_rate_follow_the_circle():
+    radius = 366.06  # the ring's centreline, counter-clockwise: a left turn
+    config = SumoConfig(str(bundled_nets()["ring"]), end=30, seed=2)
+    with SumoSource(config) as src:
+        objects = SumoObjects(src)
+        yaw, expected, curvature = [], [], []
+        for _ in range(200):
+            src.advance()
+            frame = objects.frame()
+            road = [libsumo.vehicle.getRoadID(v) if v else "" for v in src.vehicle_ids]
+            on_edge = np.array([r.startswith("ring") for r in road])  # not in a junction
+            curvature.append(frame.road_curvature[on_edge])
+            yaw.append(frame.ego_yaw_rate[on_edge])
+            expected.append(frame.ego_speed[on_edge] / radius)
+        # A one-lane road gets no roadside objects.
+        assert len(objects.roadside) == 0 and frame.valid.sum() > 50
+    curvature = np.concatenate(curvature)
+    # 5 degree chords (0.03 % high), the two at a lane's ends shortened by the junctions.
+    assert np.allclose(curvature, 1.0 / radius, rtol=1e-2)
+    # The heading turns by 5 degrees at each chord's end: the mean yaw rate is v / R.
+    yaw, expected = np.concatenate(yaw), np.concatenate(expected)
+    assert np.mean(yaw) == pytest.approx(np.mean(expected), rel=0.03)
+
+
 def test_roadside_placement_is_reproducible_from_its_seed(run):
     lanes, placed = run["lanes"], run["roadside"]
     again = place_roadside(lanes, RoadsideConfig())
@@ -173,13 +220,16 @@ def test_roadside_placement_is_reproducible_from_its_seed(run):
 
 def test_lane_curvature_of_an_arc_is_its_inverse_radius():
     radius = 500.0
-    phi = np.linspace(0.0, 0.5, 51)
+    phi = np.linspace(0.0, 0.5, 251)  # a vertex per metre
     arc = np.column_stack([radius * np.sin(phi), radius * (1 - np.cos(phi))])  # turning left
-    s, k = _vertex_curvature(arc)
-    assert s[-1] == pytest.approx(radius * 0.5, rel=1e-3)
-    assert np.allclose(k[1:-1], 1.0 / radius, rtol=1e-3) and k[0] == k[-1] == 0.0
-    _, k_right = _vertex_curvature(arc * [1.0, -1.0])
-    assert np.allclose(k_right[1:-1], -1.0 / radius, rtol=1e-3)
+    for sign in (1.0, -1.0):  # the mirrored arc turns right
+        s, heading = _lane_geometry(arc * [1.0, sign])
+        assert s[-1] == pytest.approx(radius * 0.5, rel=1e-4)
+        pos = np.array([0.0, 5.0, 100.0, s[-1]])
+        start = np.array([0, len(s)])
+        kappa = curvature_at(np.zeros(4, np.int64), pos, start, s, heading)
+        assert np.allclose(kappa, sign / radius, rtol=1e-6)
+    assert curvature_at(np.array([-1]), np.zeros(1), start, s, heading)[0] == 0.0
 
 
 @pytest.mark.parametrize(
@@ -197,3 +247,19 @@ def test_bad_config_is_a_one_line_error(make, name):
     with pytest.raises(ConfigError) as err:
         make()
     assert str(err.value).startswith(name) and "\n" not in str(err.value)
+
+
+def test_the_world_benchmark_runs_and_ends_with_the_overhead_ratio():
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}  # this checkout's package in the workers
+    motorway = str(bundled_nets()["motorway"])
+    cmd = [sys.executable, str(root / "scripts" / "bench_world.py"), "--sumocfg", motorway]
+    cmd += ["--end", "40", "--warmup", "35"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True, env=env)
+    out = out.stdout
+    lines = out.strip().splitlines()
+    assert "50 steps" in lines[0] and lines[-1].startswith("overhead_ratio=")
+    assert float(lines[-1].split("=")[1]) > 1.0 and "objects per ego" in out
+    bad = subprocess.run([*cmd[:2], "--warmup", "50", "--end", "40"], capture_output=True,
+                         text=True, timeout=60, env=env)  # fmt: skip
+    assert bad.returncode == 2 and "--warmup < --end" in bad.stderr
