@@ -19,7 +19,7 @@ from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig  # noqa: E402
 from acc_fusion.truth.sumo.nets import bundled_nets  # noqa: E402
-from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects  # noqa: E402
+from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects, _path_offset  # noqa: E402
 from acc_fusion.truth.sumo.roadside import (  # noqa: E402
     ROADSIDE_ID_BASE,
     RoadsideConfig,
@@ -230,6 +230,20 @@ def test_lane_curvature_of_an_arc_is_its_inverse_radius():
         kappa = curvature_at(np.zeros(4, np.int64), pos, start, s, heading)
         assert np.allclose(kappa, sign / radius, rtol=1e-6)
     assert curvature_at(np.array([-1]), np.zeros(1), start, s, heading)[0] == 0.0
+
+
+def test_the_lateral_offset_from_a_curved_path():
+    """Off the ego's edge the relative lane is the offset from the circle of the ego's road
+    curvature, in lane widths."""
+    assert _path_offset(150.0, 3.5, 0.0) == 3.5  # straight: y itself
+    radius, phi = 400.0, 0.6
+    for kappa, sign in ((1 / radius, 1.0), (-1 / radius, -1.0)):
+        # A point 3.5 m inside (left of) a left turn, right of a right turn, 240 m along it.
+        r = radius - 3.5
+        x, y = r * np.sin(phi), sign * (radius - r * np.cos(phi))
+        assert _path_offset(x, y, kappa) == pytest.approx(sign * 3.5, abs=1e-9)
+    # Near the origin: y - kappa x^2 / 2.
+    assert _path_offset(20.0, 1.0, 1e-4) == pytest.approx(1.0 - 1e-4 * 200.0, abs=1e-5)
 
 
 @pytest.mark.parametrize(
