@@ -170,6 +170,7 @@ def test_the_compiled_reader_and_libsumo_s_getters_give_the_same_frames():
             for _ in range(150):
                 src.advance()
                 frame = objects.frame()
+            assert objects.frame() is frame  # asked again in the step: the same frame
             frames.append(frame)
     a, b = frames
     assert a.valid.sum() > 100 and np.all(a.x[a.valid] <= 120) and np.all(np.abs(a.y[a.valid]) <= 8)

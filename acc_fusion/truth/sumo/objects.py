@@ -195,6 +195,7 @@ class SumoObjects:
         self._prev_heading = np.zeros(n)
         self._prev_id = np.full(n, -1, dtype=np.int64)
         self._prev_t = math.nan
+        self._frame: ObjectFrame | None = None
 
     def _statics(self, vid: str) -> tuple[float, float, float, float, float]:
         """Length, width, height [m], rcs [dBsm] and thermal contrast [K] of a vehicle (read
@@ -258,11 +259,14 @@ class SumoObjects:
         return ids, state
 
     def frame(self) -> ObjectFrame:
-        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step."""
+        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step (the
+        same frame when asked again in the step)."""
         src, cfg = self._source, self.config
         if src.closed:
             raise ConfigError("the SUMO source is closed")
         truth = src.frame()
+        if self._frame is not None and self._frame.t == truth.t:  # asked again this step
+            return self._frame
         ids, veh = self._vehicles()
         road, nv = self.roadside, len(ids)
         nr = len(road)
@@ -299,7 +303,7 @@ class SumoObjects:
               cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
               *out)  # fmt: skip
         floats, object_id, kinds, lane, lead = out
-        return ObjectFrame(
+        self._frame = ObjectFrame(
             t=truth.t,
             ego_speed=truth.ego_speed,
             ego_accel=truth.ego_accel,
@@ -312,6 +316,7 @@ class SumoObjects:
             lead=lead,
             **dict(zip(_FIELDS, floats, strict=True)),
         )
+        return self._frame
 
     def _ego_lane(self, ego: np.ndarray, veh: dict) -> tuple[np.ndarray, np.ndarray]:
         """Road curvature [1/m] and lane width [m] at each ego (0 and 1 for empty slots)."""
