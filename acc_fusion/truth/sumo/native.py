@@ -80,8 +80,11 @@ def sumo_reader() -> ModuleType | None:
     its ``Codes()`` table (str to int, with the dict methods the source uses, looked up in
     C++; each slot keeps its last leader's entry, so a leader seen before is not looked up
     again); it returns ``{i: leader id}`` for the leaders whose code has no slot
-    (``code % (n_pairs + 1) == 0``).  A failed read raises ``libsumo.TraCIException``, as
-    libsumo's functions do.
+    (``code % (n_pairs + 1) == 0``).  Its ``state(vids, edges, f, k)`` reads every vehicle's
+    position, angle, speed, acceleration and lane position into the rows of ``f`` (``(6, n)``
+    float64) and its edge's code in the ``Codes`` table ``edges`` and lane index into ``k``
+    (``(2, n)`` int64; the object truth of :mod:`acc_fusion.truth.sumo.objects`).  A failed
+    read raises ``libsumo.TraCIException``, as libsumo's functions do.
     """
     if os.environ.get("ACC_FUSION_NATIVE", "1") == "0":
         return None

@@ -292,12 +292,66 @@ static PyObject* read(PyObject*, PyObject* args) {
     return out;
 }
 
+// state(vids, edges, f, k)
+//
+// For each vehicle id vids[i] (n of them): f[0n + i], f[1n + i] = getPosition (x, y: the front
+// bumper's centre), f[2n + i] = getAngle, f[3n + i] = getSpeed, f[4n + i] = getAcceleration,
+// f[5n + i] = getLanePosition; k[i] = edges[getRoadID] (-1 when the edge has no code),
+// k[n + i] = getLaneIndex.  edges: a Codes table; f: a writable float64 buffer of 6 n items,
+// k: int64 of 2 n.  The object truth of acc_fusion.truth.sumo.objects reads every vehicle so.
+static PyObject* state(PyObject*, PyObject* args) {
+    PyObject *vids, *table;
+    Py_buffer fb, kb;
+    if (!PyArg_ParseTuple(args, "O!O!w*w*", &PyList_Type, &vids, &CodesType, &table, &fb, &kb))
+        return nullptr;
+    const Py_ssize_t n = PyList_GET_SIZE(vids);
+    const Table* edges = reinterpret_cast<Codes*>(table)->table;
+    bool ok = buffer_ok(fb, 6 * n) && buffer_ok(kb, 2 * n);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError,
+                        "state() needs 8-byte buffers of 6 and 2 len(vids) items");
+    } else {
+        double* f = static_cast<double*>(fb.buf);
+        long long* k = static_cast<long long*>(kb.buf);
+        std::string id;
+        try {
+            for (Py_ssize_t i = 0; i < n; ++i) {
+                if (!key_of(PyList_GET_ITEM(vids, i), id)) throw std::exception();
+                const libsumo::TraCIPosition p = libsumo::Vehicle::getPosition(id);
+                f[i] = p.x;
+                f[n + i] = p.y;
+                f[2 * n + i] = libsumo::Vehicle::getAngle(id);
+                f[3 * n + i] = libsumo::Vehicle::getSpeed(id);
+                f[4 * n + i] = libsumo::Vehicle::getAcceleration(id);
+                f[5 * n + i] = libsumo::Vehicle::getLanePosition(id);
+                const Table::const_iterator it = edges->find(libsumo::Vehicle::getRoadID(id));
+                k[i] = it == edges->end() || it->second == DEAD ? -1 : it->second;
+                k[n + i] = libsumo::Vehicle::getLaneIndex(id);
+            }
+        } catch (const std::bad_alloc&) {
+            ok = false;
+            PyErr_NoMemory();
+        } catch (const std::exception& exc) {
+            ok = false;
+            if (!PyErr_Occurred())
+                PyErr_SetString(traci_error ? traci_error : PyExc_RuntimeError, exc.what());
+        }
+    }
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&kb);
+    if (!ok) return nullptr;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"init", init, METH_VARARGS, "init(error): the exception class a failed read raises."},
     {"read", read, METH_VARARGS,
      "read(vids, slots, lookahead, codes, n_pairs, speed, dist, code) -> {i: leader id}: "
      "each vehicle's speed and leader (libsumo getSpeed, getLeader) into the buffers; the ids "
      "of the leaders without a slot."},
+    {"state", state, METH_VARARGS,
+     "state(vids, edges, f, k): each vehicle's position, angle, speed, acceleration, lane "
+     "position (f, 6 rows) and edge code and lane index (k, 2 rows)."},
     {nullptr, nullptr, 0, nullptr}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_sumo_reads", nullptr, -1, methods};

@@ -1,0 +1,167 @@
+"""Benchmark: the cost of the 2-D world (object truth from SUMO) on SUMO's own A10KW scenario.
+
+Runs ``<SUMO_HOME>/tools/game/A10KW.sumocfg`` (an OpenStreetMap motorway interchange scenario
+of SUMO's game, shipped in the eclipse-sumo wheel: 0.5 s steps, about 470 vehicles at 300 s,
+1794 edges) with the
+SUMO options of :func:`acc_fusion.truth.sumo.launch.sumo_command` and the same seed, three
+times, each in a fresh process (libsumo allows one simulation per process), one after the
+other:
+
+* **bare**: SUMO alone, ``simulationStep`` in a loop;
+* **source**: :class:`acc_fusion.truth.sumo.source.SumoSource` with every vehicle equipped
+  (``penetration`` 1, as ``acc-fusion sumo --sumocfg`` does by default), frames made and
+  nothing done with them;
+* **objects**: the same source plus :meth:`acc_fusion.truth.sumo.objects.SumoObjects.frame`
+  at every step (every vehicle, the roadside objects, the per-ego search and transform).
+
+Each run simulates the same ``--warmup`` seconds (30) untimed — the network fills, numba
+loads its compiled kernels — then is timed from there to ``--end`` (300 s).  A run is a list
+of per-step stages (:data:`RUNS`: made from the open source, each called after every step):
+the later sensors, trackers and fusion are further stages.  It prints each run's wall time
+and its ratio to bare, the egos per step and objects per ego (means over the timed steps),
+each run's resident memory (current and peak) at the start and the end of its timed part
+(memory must stay flat: the objects run may grow only as bare SUMO does, with the number of
+vehicles), and as its last line ``overhead_ratio=<objects wall time / bare wall time>``.
+
+    python scripts/bench_world.py               # 300 s simulated
+    python scripts/bench_world.py --end 1800 --capacity 2048  # the half hour: memory check
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import resource
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+#: SUMO options that silence A10KW's verbose report (the same in every run).
+QUIET = ("--verbose", "false", "--duration-log.statistics", "false")
+
+
+def _object_stages(source) -> list[Callable[[], object]]:
+    """The objects run's stages: the object frame of every step."""
+    from acc_fusion.truth.sumo.objects import SumoObjects
+
+    return [SumoObjects(source).frame]
+
+
+#: Per run: a factory of its per-step stages, given the open source (``None``: bare SUMO).
+RUNS: dict[str, Callable | None] = {
+    "bare": None,
+    "source": lambda source: [],
+    "objects": _object_stages,
+}
+
+
+def _rss_mb() -> tuple[float, float]:
+    """Current and peak resident memory of this process [MB] (Linux /proc for the current)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20, peak
+    except OSError:
+        return peak, peak
+
+
+def _run(name: str, sumocfg: str, end: float, warmup: float, seed: int, capacity: int) -> dict:
+    """One run of :data:`RUNS`: its timed wall time, steps, egos and objects, memory."""
+    from acc_fusion.truth.sumo.config import SumoConfig
+
+    config = SumoConfig(sumocfg=sumocfg, end=end, seed=seed, capacity=capacity, extra_args=QUIET)
+    if RUNS[name] is None:
+        return _bare(config, end, warmup)
+    from acc_fusion.truth.sumo.source import SumoSource
+
+    egos = objects = 0
+    with SumoSource(config) as source:
+        stages = RUNS[name](source)
+        while source.t < source.begin + warmup - 1e-9:
+            source.advance()
+            for stage in stages:
+                stage()
+        rss_start = _rss_mb()
+        steps, t0 = 0, time.perf_counter()
+        while not source.done:
+            source.advance()
+            outputs = [stage() for stage in stages]
+            steps += 1
+            if outputs:  # the object frame: egos and objects per ego this step
+                frame = outputs[0]
+                active = source.active
+                egos += int(active.sum())
+                objects += int(frame.valid[active].sum())
+        elapsed = time.perf_counter() - t0
+        rss_end = _rss_mb()
+    return {"wall": elapsed, "steps": steps, "egos": egos, "objects": objects,
+            "rss_start": rss_start, "rss_end": rss_end}  # fmt: skip
+
+
+def _bare(config, end: float, warmup: float) -> dict:
+    """SUMO alone on the source's command line, warm-up and timed part as :func:`_run`."""
+    import libsumo
+
+    from acc_fusion.truth.sumo.launch import sumo_command
+
+    libsumo.start([*sumo_command(config), "--end", str(end)])
+    try:
+        while libsumo.simulation.getTime() < warmup - 1e-9:
+            libsumo.simulationStep()
+        rss_start, steps, t0 = _rss_mb(), 0, time.perf_counter()
+        while libsumo.simulation.getTime() < end - 1e-9:
+            libsumo.simulationStep()
+            steps += 1
+        elapsed = time.perf_counter() - t0
+    finally:
+        libsumo.close()
+    return {"wall": elapsed, "steps": steps, "egos": 0, "objects": 0,
+            "rss_start": rss_start, "rss_end": _rss_mb()}  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--end", type=float, default=300.0, help="simulated seconds (300)")
+    parser.add_argument("--warmup", type=float, default=30.0, help="untimed seconds (30)")
+    parser.add_argument("--seed", type=int, default=0, help="SUMO's seed (0)")
+    parser.add_argument(
+        "--capacity", type=int, default=1024, help="slots E (1024; 2048 for --end 1800)"
+    )
+    parser.add_argument("--sumocfg", help="scenario (default: SUMO's tools/game/A10KW.sumocfg)")
+    args = parser.parse_args(argv)
+    if not 0 <= args.warmup < args.end:
+        parser.error(f"need 0 <= --warmup < --end, got {args.warmup} and {args.end}")
+    if args.capacity < 1:
+        parser.error(f"--capacity must be at least 1, got {args.capacity}")
+    if args.sumocfg is None:
+        import sumo
+
+        args.sumocfg = str(Path(sumo.SUMO_HOME) / "tools" / "game" / "A10KW.sumocfg")
+    ctx = multiprocessing.get_context("spawn")
+    res = {}
+    for name in RUNS:
+        with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
+            job = pool.submit(
+                _run, name, args.sumocfg, args.end, args.warmup, args.seed, args.capacity
+            )
+            res[name] = job.result()
+    bare = res["bare"]
+    print(f"scenario {args.sumocfg}, {args.warmup:g} s warm-up, timed to {args.end:g} s, "
+          f"{bare['steps']} steps")  # fmt: skip
+    for name, r in res.items():
+        assert r["steps"] == bare["steps"], f"{name} ran {r['steps']} steps, bare {bare['steps']}"
+        print(f"{name:8s} {r['wall']:7.2f} s  {1e3 * r['wall'] / r['steps']:6.2f} ms/step  "
+              f"ratio {r['wall'] / bare['wall']:5.2f}  RSS {r['rss_start'][0]:.0f} -> "
+              f"{r['rss_end'][0]:.0f} MB, peak {r['rss_start'][1]:.0f} -> "
+              f"{r['rss_end'][1]:.0f} MB")  # fmt: skip
+    obj = res["objects"]
+    print(f"egos per step {obj['egos'] / obj['steps']:.1f}, "
+          f"objects per ego {obj['objects'] / max(obj['egos'], 1):.1f}")  # fmt: skip
+    print(f"source_ratio={res['source']['wall'] / bare['wall']:.3f}")
+    print(f"overhead_ratio={obj['wall'] / bare['wall']:.3f}")
+
+
+if __name__ == "__main__":
+    main()
