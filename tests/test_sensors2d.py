@@ -330,7 +330,7 @@ def test_unused_slots_and_empty_frames_give_no_detections():
                            **{k: np.zeros((2, 0), dtype=getattr(frame, k).dtype) for k in (
                                "x", "y", "elevation", "vx", "vy", "speed", "accel", "heading",
                                "length", "width", "height", "rcs", "thermal_contrast",
-                               "object_id", "kind", "lane")}})  # fmt: skip
+                               "object_id", "kind", "lane", "lateral_speed")}})  # fmt: skip
     for sensor in (radar, camera):
         d = sensor.detect(empty, CLEAR)
         assert d.online and d.count == 0 and d.n_egos == 2

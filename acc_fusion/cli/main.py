@@ -12,6 +12,7 @@ Commands:
     sumo         FCW in SUMO traffic (bundled networks or any .sumocfg), FCW on and off
     highway      FCW in highway-env traffic, FCW on and off, rendered replays
     replay       recorded traffic (highD, NGSIM, trajectory CSV) through the pipeline, open loop
+    world        the 2-D scenes under weather and light: alerts by class and cause per method
     evaluate     a warning policy against the baselines in the gymnasium environment
     sweep        Monte Carlo sweeps (local processes or Ray), resumable, ROC curves, report
     estimation   federated fusion against its baselines (RMSE, NEES, cost per pair-step)
@@ -38,6 +39,7 @@ from acc_fusion.cli import (
     sumo,
     sweep,
     tune,
+    world,
 )
 from acc_fusion.core.errors import AccFusionError
 
@@ -50,6 +52,7 @@ COMMANDS = (
     sumo,
     highway,
     replay,
+    world,
     evaluate,
     sweep,
     estimation,

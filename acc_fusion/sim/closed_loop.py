@@ -37,6 +37,7 @@ from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import Measurement
 from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
+from acc_fusion.sim.world_config import WorldConfig
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.manoeuvres import SCENARIOS
@@ -77,6 +78,8 @@ class SimConfig:
             alert; default) or 1, caution.
         radar, infrared: overrides of the sensors' default specs (e.g. ``{"ghost_rate": 0.1}``).
         radar_faults, infrared_faults: faults injected into each sensor.
+        world: the 2-D world's settings (scene, conditions, 2-D sensors, trackers,
+            association, in-path selection), used by :func:`acc_fusion.sim.world.simulate_world`.
     """
 
     scenario: str = "random"
@@ -96,6 +99,7 @@ class SimConfig:
     infrared: dict = field(default_factory=dict)
     radar_faults: tuple[Fault, ...] = ()
     infrared_faults: tuple[Fault, ...] = ()
+    world: WorldConfig = field(default_factory=WorldConfig)
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, tuple(SCENARIOS))
@@ -317,27 +321,35 @@ class Perception(PairState):
         meas = [s.measure(frame) for s in self.sensors]
         v_ego, bias = self.ego.step(accel, wheel)
         self._accel_now = accel - bias
-        has = frame.has_leader & active
-        rate = np.where(has, frame.range_rate, 0.0)
-        oracle = self.oracle.step(
-            np.where(has, frame.gap, 0.0),
-            frame.ego_speed,
-            rate,
-            np.where(has, frame.lead_accel, 0.0),
-            valid=has,
-        )
-        # True TTC (constant speeds, as SUMO's SSM device defines it); inf without a leader.
-        ttc = time_to_collision(np.where(has, frame.gap, 1.0), rate)
-        relevant = active & crash_relevant(
-            self.config.alert_classes, frame.has_leader, frame.gap, frame.ego_speed,
-            frame.lead_speed, frame.lead_accel,
-        )  # fmt: skip
+        oracle, ttc, relevant = judge(self.oracle, self.config.alert_classes, frame, active)
         ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
         return Perceived(frame, meas, v_ego, ests, oracle, ttc, relevant)
 
     def advanced(self) -> None:
         """The source moved one step: this step's acceleration is the next prediction's input."""
         self._input = self._accel_now
+
+
+def judge(
+    oracle: WarningLogic, classes: AlertClassConfig, frame: TruthFrame, active: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What truth says at ``frame``: the oracle's warning level (the rule on ground truth,
+    advancing ``oracle``), the true TTC (constant speeds, as SUMO's SSM device defines it; inf
+    without a leader) and the pairs in a crash-relevant situation."""
+    has = frame.has_leader & active
+    rate = np.where(has, frame.range_rate, 0.0)
+    level = oracle.step(
+        np.where(has, frame.gap, 0.0),
+        frame.ego_speed,
+        rate,
+        np.where(has, frame.lead_accel, 0.0),
+        valid=has,
+    )
+    ttc = time_to_collision(np.where(has, frame.gap, 1.0), rate)
+    relevant = active & crash_relevant(
+        classes, frame.has_leader, frame.gap, frame.ego_speed, frame.lead_speed, frame.lead_accel
+    )
+    return level, ttc, relevant
 
 
 def warning_inputs(p: Perceived, method: str, active: np.ndarray) -> dict[str, np.ndarray]:

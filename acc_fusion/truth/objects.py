@@ -92,6 +92,8 @@ class ObjectFrame:
             next on the right, ...), :data:`OFF_ROAD` for objects on no lane.
         lead: ``(E,)`` int64, the slot of the true in-path lead — the nearest vehicle ahead
             in the ego's lane — or ``-1``.
+        lateral_speed: ``(E, M)`` the object's speed across its lane [m/s], left positive (a
+            lane change); zeros when the source does not know it.
     """
 
     t: float
@@ -117,6 +119,7 @@ class ObjectFrame:
     thermal_contrast: np.ndarray
     lane: np.ndarray
     lead: np.ndarray
+    lateral_speed: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         valid = np.asarray(self.valid)
@@ -125,7 +128,9 @@ class ObjectFrame:
         e, m = valid.shape
         for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature"):
             object.__setattr__(self, name, check_array(name, getattr(self, name), (e,)))
-        for name in _FLOAT_FIELDS:
+        if self.lateral_speed is None:
+            object.__setattr__(self, "lateral_speed", np.zeros((e, m)))
+        for name in (*_FLOAT_FIELDS, "lateral_speed"):
             value = check_array(name, getattr(self, name), (e, m), where=valid)
             object.__setattr__(self, name, value)
         for name, dtype in (("object_id", np.int64), ("kind", np.int8), ("lane", np.int64)):

@@ -221,15 +221,16 @@ def lead_brakes(n: int, rng: np.random.Generator) -> Scene:
 
 
 def curve_adjacent(n: int, rng: np.random.Generator) -> Scene:
-    r"""A left curve (R 300-500 m) starts 120 m ahead of the ego (25 m/s); a car in the right
-    lane, 3-6 m/s slower, is :math:`\sqrt{2 w R}` (± 5 m) into the curve when the ego reaches
-    it — where the right lane crosses the straight extension of the ego's path."""
+    r"""A left curve (R 300-500 m) starts 150 m ahead of the ego (30 m/s); a slow vehicle in
+    the right lane (12-18 m/s, a truck on a grade) is :math:`\sqrt{2 w R}` (± 5 m) into the
+    curve when the ego reaches it — where the right lane crosses the straight extension of the
+    ego's path."""
     radius = rng.uniform(300.0, 500.0)
-    road = Road(curves=((120.0, 1.0 / radius),))
-    v = np.full(n, 25.0)
-    v_other = v - _u(rng, 3.0, 6.0, n)
+    road = Road(curves=((150.0, 1.0 / radius),))
+    v = np.full(n, 30.0)
+    v_other = _u(rng, 12.0, 18.0, n)
     into = np.sqrt(2.0 * LANE_WIDTH * radius) + _u(rng, -5.0, 5.0, n)
-    other = {"kind": ObjectKind.VEHICLE, "s0": 120.0 + into - v_other * 120.0 / v,
+    other = {"kind": ObjectKind.VEHICLE, "s0": 150.0 + into - v_other * 150.0 / v,
              "v0": v_other, "d0": -LANE_WIDTH}  # fmt: skip
     return Scene("curve_adjacent", road, _actors(n, [other, *_guardrail(n, road)]),
                  v, v, np.full(n, 1.5), 10.0)  # fmt: skip
@@ -296,27 +297,23 @@ SCENES: dict[str, Callable[[int, np.random.Generator], Scene]] = {
 
 @dataclass(frozen=True)
 class SceneConfig:
-    """Which scene, how many runs, the step and the ego's yaw-rate sensor.
+    """Which scene, how many runs and the step.
 
     Attributes:
         scene: a name of :data:`SCENES`.
         runs: Monte Carlo runs (one ego each), ``>= 1``.
         dt: step [s].
-        yaw_rate_std: noise std of the ego's yaw-rate gyro [rad/s]; 0.005 (0.3 °/s, the
-            order of automotive MEMS yaw-rate sensors' noise; assumption).
     """
 
     scene: str = "cut_out"
     runs: int = 50
     dt: float = 0.05
-    yaw_rate_std: float = 0.005
 
     def __post_init__(self) -> None:
         check_choice("scene", self.scene, SCENES)
         if not isinstance(self.runs, int) or self.runs < 1:
             raise ConfigError(f"runs must be an integer >= 1, got {self.runs!r}")
         check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
-        check_range("yaw_rate_std", self.yaw_rate_std, 0.0)
 
 
 class SceneSource:
@@ -328,7 +325,6 @@ class SceneSource:
         rng = np.random.default_rng(seed)
         self.config = config
         self.scene = SCENES[config.scene](config.runs, rng)
-        self._gyro = np.random.default_rng(rng.integers(2**63))
         self._geo = _Geometry(self.scene.road)
         n = config.runs
         self.t = 0.0
@@ -391,7 +387,7 @@ class SceneSource:
         lead = np.where((lead >= 0) & valid[rows, np.maximum(lead, 0)], lead, -1)
         n_actors = act.kind.shape[1]
         kappa = geo.at("kappa", self._s)
-        yaw = kappa * self._v + self._gyro.normal(0.0, self.config.yaw_rate_std, self._v.shape)
+        yaw = kappa * self._v
         return ObjectFrame(
             t=self.t, ego_speed=self._v.copy(), ego_accel=self._a.copy(), ego_yaw_rate=yaw,
             road_curvature=kappa, valid=valid,
@@ -399,7 +395,7 @@ class SceneSource:
             kind=act.kind, x=x, y=y, elevation=elevation, vx=vx, vy=vy,
             speed=np.broadcast_to(ground, valid.shape).copy(), accel=a, heading=psi - th_e,
             length=length, width=width, height=height, rcs=rcs, thermal_contrast=contrast,
-            lane=lane, lead=lead,
+            lane=lane, lead=lead, lateral_speed=d_rate,
         )  # fmt: skip
 
     def advance(self) -> None:

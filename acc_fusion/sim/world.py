@@ -1,0 +1,220 @@
+r"""The 2-D world end to end: objects → radar and thermal camera → per-sensor trackers →
+track-to-track association → one estimator per method on every associated object → in-path
+selection → warning → metrics by class and cause.
+
+Per step, for E egos (one per run of a scripted scene, or the equipped vehicles of a traffic
+source) and F object slots each:
+
+1. the truth source gives an :class:`~acc_fusion.truth.objects.ObjectFrame`; the conditions
+   (:class:`~acc_fusion.truth.conditions.Conditions`) are the run's;
+2. each 2-D sensor (:func:`acc_fusion.sensors.suite2d.sensors_2d`) returns its detections;
+3. each sensor's multi-target tracker (:class:`acc_fusion.fusion.tracking.tracker.Tracker`)
+   associates, confirms and deletes tracks; the tracks of the two sensors are associated into
+   objects (:class:`acc_fusion.fusion.tracking.association.TrackAssociator`);
+4. every method's estimator — each sensor alone, centralized, federated with its FDI, exactly
+   the 1-D pipeline's — runs on the E·F associated objects as E·F pairs, fed with the
+   detections each sensor's track took at this step;
+5. the in-path selector (:mod:`acc_fusion.warning.selection`) picks each ego's object from the
+   method's estimates, and the warning logic judges it;
+6. truth — the ego's true in-path lead (:meth:`ObjectFrame.lead_frame`) — gives the oracle,
+   the crash-relevant situations and the alert classes (:mod:`acc_fusion.metrics.events`);
+   each warning's *cause* is what the selected object is in truth at its onset
+   (:func:`alert_cause`).
+
+The 1-D pipeline (:func:`acc_fusion.sim.closed_loop.simulate`) is the special case of one
+object, always in path, measured without association.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
+from acc_fusion.fusion.estimators import make_estimator
+from acc_fusion.fusion.tracking.association import TrackAssociator, fused_measurements
+from acc_fusion.fusion.tracking.tracker import Tracker
+from acc_fusion.metrics.events import FCWMetrics
+from acc_fusion.metrics.summary import CAUSES, FCWSummary
+from acc_fusion.sensors.suite import SENSOR_NAMES
+from acc_fusion.sensors.suite2d import sensors_2d
+from acc_fusion.sim.closed_loop import ACCEL_STD, SimConfig, _EgoSensors, _track_inputs, judge
+from acc_fusion.sim.world_config import WorldConfig
+from acc_fusion.truth.objects import ObjectFrame, ObjectKind
+from acc_fusion.truth.scenes import SceneConfig, SceneSource
+from acc_fusion.warning.logic import WarningLogic
+from acc_fusion.warning.selection import InPathSelector
+
+#: Lateral speed [m/s] above which a vehicle counts as changing lanes (a lane change moves
+#: sideways at about 0.5-1.5 m/s; assumption).
+LANE_CHANGE_SPEED = 0.5
+#: Methods whose estimates include the thermal camera, the classifying sensor.
+_CLASSIFYING = ("infrared", "centralized", "federated")
+
+
+def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
+    """``(E,)`` index into :data:`CAUSES` of what each ego's selected object is in truth.
+
+    ``truth_id (E,)`` is the true object id behind the selected object (``-1`` for a ghost or
+    clutter track).  The true in-path lead is ``lead``; a stationary kind is ``stationary``; a
+    vehicle moving across its lane faster than :data:`LANE_CHANGE_SPEED` is ``cut_in_out``;
+    any other vehicle ``adjacent``; an id not in the frame (or ``-1``) ``ghost``.
+    """
+    n = frame.n_egos
+    lead_id = frame.lead_frame().leader_id
+    match = frame.valid & (frame.object_id == truth_id[:, None]) & (truth_id[:, None] >= 0)
+    found = match.any(axis=1)
+    k = np.argmax(match, axis=1)
+    rows = np.arange(n)
+    kind = frame.kind[rows, k]
+    stationary = frame.stationary[rows, k]
+    sideways = np.abs(frame.lateral_speed[rows, k]) > LANE_CHANGE_SPEED
+    cause = np.where(
+        stationary,
+        CAUSES.index("stationary"),
+        np.where(
+            (kind == ObjectKind.VEHICLE) & sideways,
+            CAUSES.index("cut_in_out"),
+            CAUSES.index("adjacent"),
+        ),
+    )
+    cause = np.where(found, cause, CAUSES.index("ghost"))
+    return np.where(found & (truth_id == lead_id), CAUSES.index("lead"), cause).astype(np.int64)
+
+
+@dataclass
+class WorldResult:
+    """What :func:`simulate_world` measured: one summary per method (with ``by_cause``), the
+    runs' collisions and the step count."""
+
+    config: SimConfig
+    summaries: dict[str, FCWSummary]
+    collided: np.ndarray
+    steps: int
+
+
+class WorldPerception:
+    """The 2-D world's sensing and estimation over E egos (steps 2-5 of the module docstring)."""
+
+    def __init__(self, config: SimConfig, n: int, seed: np.random.SeedSequence) -> None:
+        s_sensors, s_ego, s_gyro = seed.spawn(3)
+        world: WorldConfig = config.world
+        self.config, self.world, self.n = config, world, n
+        self.sensors = sensors_2d(world.sensors, s_sensors)
+        self.trackers = [Tracker(s.spec.name, world.tracker, n) for s in self.sensors]
+        tracks = (world.tracker.max_tracks,) * 2
+        self.associator = TrackAssociator(world.association, n, tracks)
+        self.slots = self.associator.n_slots
+        self._read_ego = _EgoSensors(n, np.random.default_rng(s_ego))
+        self._gyro = np.random.default_rng(s_gyro)
+        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / config.dt))
+        filters = replace(config.fusion.filter, dt=config.dt, ego_accel_std=ACCEL_STD)
+        fusion = replace(config.fusion, filter=filters)
+        pairs = n * self.slots
+        specs = config.sensor_specs()
+        self.estimators = {
+            m: make_estimator(replace(fusion, method=m), SENSOR_NAMES, pairs, specs)
+            for m in config.methods
+        }
+        self.selectors = {m: InPathSelector(world.selection, n, self.slots) for m in config.methods}
+        self._input = np.zeros(pairs)
+        self._t_prev: float | None = None
+
+    def step(self, frame: ObjectFrame) -> tuple[dict[str, dict[str, np.ndarray]], np.ndarray]:
+        """Sense, track, fuse and select at ``frame``: per method the warning inputs of the
+        selected objects and their true ids; and the measured ego speed."""
+        dt = self.config.dt if self._t_prev is None else frame.t - self._t_prev
+        self._t_prev = frame.t
+        lead = frame.lead_frame()
+        accel, wheel = self._read_ego(lead)
+        v_ego, bias = self.ego.step(accel, wheel)
+        yaw = frame.ego_yaw_rate + self._gyro.normal(0.0, self.world.yaw_rate_std, self.n)
+        detections = [s.detect(frame, self.world.conditions) for s in self.sensors]
+        tracks = [
+            tr.step(d, v_ego, yaw, dt) for tr, d in zip(self.trackers, detections, strict=True)
+        ]
+        fused = self.associator.step(*tracks)
+        measurements, target = fused_measurements(fused, tracks, detections)
+        u = np.repeat(accel - bias, self.slots)
+        out = {}
+        for m, estimator in self.estimators.items():
+            est = estimator.step(measurements, target, self._input)
+            out[m] = self._select(m, est, fused, tracks, v_ego, yaw, frame.road_curvature)
+        self._input = u
+        return out, v_ego
+
+    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature):
+        """The selected object of each ego under ``method`` and the warning's inputs."""
+        n, f = self.n, self.slots
+        ok = (est.valid.reshape(n, f)) & fused.valid
+        x = est.x.reshape(n, f, 3)
+        ids = np.where(ok, fused.object_id, -1)
+        camera = fused.track[..., 1] >= 0
+        confirmed = camera if method in _CLASSIFYING else np.zeros_like(camera)
+        ground = v_ego[:, None] + x[..., 1]
+        sel = self.selectors[method].step(
+            ids, x[..., 0], fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
+        )
+        has = sel >= 0
+        rows = np.arange(n)
+        k = np.where(has, sel, 0)
+        flat = rows * f + k
+        gap, v_rel, a_lead, gap_std = np.empty((4, n))
+        _track_inputs(has, est.x[flat], est.p[flat], gap, v_rel, a_lead, gap_std)
+        radar_track, camera_track = fused.track[rows, k, 0], fused.track[rows, k, 1]
+        truth = np.where(
+            radar_track >= 0,
+            tracks[0].object_id[rows, np.maximum(radar_track, 0)],
+            tracks[1].object_id[rows, np.maximum(camera_track, 0)],
+        )
+        inputs = {"gap": gap, "v_ego": v_ego, "v_rel": v_rel, "a_lead": a_lead,
+                  "gap_std": gap_std, "valid": has}  # fmt: skip
+        return {"inputs": inputs, "truth_id": np.where(has, truth, -1)}
+
+
+def simulate_world(
+    config: SimConfig,
+    *,
+    source=None,
+    progress: bool = False,
+) -> WorldResult:
+    """Run the 2-D pipeline (settings ``config.world``) on its scene (``config.runs`` runs,
+    one ego each), or on ``source`` (anything with ``frame()`` giving an :class:`ObjectFrame`,
+    ``advance()``, ``active``, ``collided``, ``done`` and ``n_steps``), open loop."""
+    cfg, world = config, config.world
+    s_source, s_perception = np.random.SeedSequence(cfg.seed).spawn(2)
+    if source is None:
+        scene = SceneConfig(scene=world.scene, runs=cfg.runs, dt=cfg.dt)
+        source = SceneSource(scene, np.random.default_rng(s_source))
+    n = len(source.active)
+    perception = WorldPerception(cfg, n, s_perception)
+    oracle = WarningLogic(cfg.warning, n, cfg.dt)
+    logic = {m: WarningLogic(cfg.warning, n, cfg.dt) for m in cfg.methods}
+    metrics = {m: FCWMetrics(n, cfg.dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
+    steps = 0
+    for _ in tqdm(range(source.n_steps), disable=None if progress else True,
+                  desc=world.scene, unit="step", leave=False):  # fmt: skip
+        frame, active, collided = source.frame(), source.active, source.collided
+        selected, _ = perception.step(frame)
+        lead = frame.lead_frame()
+        level, ttc, relevant = judge(oracle, cfg.alert_classes, lead, active)
+        for m in cfg.methods:
+            system = logic[m].step(**selected[m]["inputs"])
+            cause = alert_cause(frame, selected[m]["truth_id"])
+            metrics[m].update(
+                frame.t, system, level, ttc, frame.ego_speed, active, collided, relevant, cause
+            )
+        source.advance()
+        steps += 1
+        if source.done:
+            break
+    for m in metrics.values():
+        m.finish(source.t, source.collided)
+    return WorldResult(
+        config=cfg,
+        summaries={m: metrics[m].summary() for m in cfg.methods},
+        collided=source.collided.copy(),
+        steps=steps,
+    )

@@ -1,0 +1,103 @@
+"""The 2-D world end to end: causes from truth, the conditions' syntax, and the mechanisms the
+scripted scenes exist for, per method."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from acc_fusion.cli.world import parse_conditions
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.metrics.summary import CAUSES
+from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.sim.world import alert_cause, simulate_world
+from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.objects import ObjectFrame, ObjectKind
+
+
+def _frame():
+    # One ego; objects: the lead (id 10), a gantry (11), an adjacent car (12), a car
+    # changing lanes (13).
+    m = 4
+    zeros = np.zeros((1, m))
+    f = {name: zeros.copy() for name in (
+        "elevation", "vx", "speed", "accel", "heading", "length", "width", "height", "rcs",
+        "thermal_contrast")}  # fmt: skip
+    f["x"] = np.array([[30.0, 120.0, 40.0, 25.0]])
+    f["y"] = np.array([[0.0, 0.0, 3.5, 2.0]])
+    f["vy"] = np.array([[0.0, 0.0, -2.0, -1.0]])  # the adjacent car: in a curve
+    f["lateral_speed"] = np.array([[0.0, 0.0, 0.0, -1.0]])
+    kind = [[ObjectKind.VEHICLE, ObjectKind.GANTRY, ObjectKind.VEHICLE, ObjectKind.VEHICLE]]
+    f.update(t=0.0, ego_speed=np.array([25.0]), ego_accel=np.zeros(1), ego_yaw_rate=np.zeros(1),
+             road_curvature=np.zeros(1), valid=np.ones((1, m), bool),
+             object_id=np.array([[10, 11, 12, 13]]), kind=np.array(kind),
+             lane=np.array([[0, 99, 1, 1]]), lead=np.array([0]))  # fmt: skip
+    return ObjectFrame(**f)
+
+
+@pytest.mark.parametrize(
+    ("truth_id", "cause"),
+    [(10, "lead"), (11, "stationary"), (12, "adjacent"), (13, "cut_in_out"), (-1, "ghost"),
+     (99, "ghost")],
+)  # fmt: skip
+def test_the_cause_is_what_the_selected_object_is_in_truth(truth_id, cause):
+    assert CAUSES[alert_cause(_frame(), np.array([truth_id]))[0]] == cause
+
+
+def test_conditions_are_parsed_and_bad_ones_are_one_error():
+    assert parse_conditions("night+fog=60") == Conditions("night", 60.0)
+    assert parse_conditions("rain=25") == Conditions(rain_rate=25.0)
+    with pytest.raises(ConfigError, match="--conditions"):
+        parse_conditions("dusk")
+    with pytest.raises(ConfigError, match="fog_visibility"):
+        parse_conditions("fog=-3")
+
+
+def _world(scene, methods, runs=10, conditions=None, **selection):
+    cfg = SimConfig(runs=runs, methods=methods, seed=2)
+    sel = replace(cfg.world.selection, **selection)
+    world = replace(cfg.world, scene=scene, selection=sel, conditions=conditions or Conditions())
+    return simulate_world(replace(cfg, world=world)).summaries
+
+
+def _false(summary, cause):
+    return summary.by_cause["sensing_false"][cause] + summary.by_cause["nuisance"][cause]
+
+
+def test_the_lead_braking_hard_is_warned_by_every_method():
+    for s in _world("lead_brakes", ("radar", "infrared", "federated")).values():
+        assert s.relevant >= 10
+        assert s.relevant_detected >= 0.8 * s.relevant
+
+
+def test_a_gantry_on_a_crest_fools_a_radar_that_takes_stationary_targets_not_the_fusion():
+    radar = _world("gantry_crest", ("radar",), stationary="all")["radar"]
+    assert _false(radar, "stationary") >= 5
+    fused = _world("gantry_crest", ("federated",))["federated"]
+    assert fused.warnings == 0
+
+
+def test_a_stopped_car_revealed_by_a_cut_out_is_missed_by_the_radar_not_by_the_camera():
+    s = _world("cut_out", ("radar", "infrared"))
+    assert s["radar"].relevant > 0
+    assert s["radar"].relevant_missed == s["radar"].relevant
+    assert s["infrared"].relevant_detected > 0
+
+
+def test_dense_fog_blinds_the_camera_so_the_fusion_misses_the_stopped_car_too():
+    fog = Conditions("night", fog_visibility=20.0)
+    s = _world("cut_out", ("federated",), conditions=fog)["federated"]
+    assert s.relevant > 0
+    assert s.relevant_detected == 0
+
+
+def test_before_a_curve_the_adjacent_lane_car_fools_every_method():
+    s = _world("curve_adjacent", ("radar", "federated"))
+    for summary in s.values():
+        assert _false(summary, "adjacent") >= 3
+
+
+def test_a_car_parked_before_a_curve_fools_the_camera_confirmed_fusion():
+    s = _world("parked_curve", ("radar", "federated"))
+    assert _false(s["federated"], "stationary") >= 5
+    assert s["radar"].warnings == 0  # the radar alone ignores unconfirmed stationary objects
