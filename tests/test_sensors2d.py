@@ -396,3 +396,39 @@ def test_bad_inputs_are_input_errors():
         Radar2D(Infrared2DSpec())
     with pytest.raises(ConfigError, match="seed must be"):
         Infrared2D(seed="seven")
+
+
+def _scans(faults, sensor_index=0, steps=40, dt=0.05):
+    """Detections of a radar (or camera) seeing one car 40 m ahead, with ``faults``."""
+    config = {"radar": {"clutter_rate": 0.0}, "infrared": {"false_rate": 0.0}}
+    key = ("radar_faults", "infrared_faults")[sensor_index]
+    sensor = sensors_2d({**config, key: faults}, seed=11)[sensor_index]
+    out = []
+    for k in range(steps):
+        d = sensor.detect(_frame([40.0], t=k * dt, egos=3), CLEAR)
+        if d.online or d.count:
+            out.append(d)
+    return sensor, out
+
+
+def test_2d_faults_act_on_whole_frames_and_leave_the_nominal_draws_alone():
+    _, healthy = _scans([])
+    _, biased = _scans([{"kind": "bias", "start": 0.5, "magnitude": 5.0, "rate_magnitude": 1.0}])
+    for h, b in zip(healthy, biased, strict=True):
+        shift = 5.0 if h.t >= 0.5 else 0.0
+        np.testing.assert_allclose(b.range, h.range + shift)
+        np.testing.assert_allclose(b.azimuth, h.azimuth)
+    _, burst = _scans([{"kind": "noise_burst", "start": 0.0, "magnitude": 10.0}])
+    err = lambda ds: np.concatenate([d.range - 40.0 for d in ds])  # noqa: E731
+    assert np.std(err(burst)) == pytest.approx(10.0 * np.std(err(healthy)), rel=1e-9)
+    assert np.all(np.concatenate([d.range_std for d in burst]) < 1.0)  # declared unchanged
+
+
+def test_a_stuck_sensor_repeats_its_last_frame_and_a_dropout_gives_none():
+    sensor, stuck = _scans([{"kind": "stuck", "start": 0.5, "end": 1.5}])
+    frozen = [d for d in stuck if 0.5 <= d.t < 1.5]
+    assert len(frozen) > 2 and all(np.array_equal(d.range, frozen[0].range) for d in frozen)
+    assert sensor.faulty(1.0) and not sensor.faulty(1.5)
+    _, dropped = _scans([{"kind": "dropout", "start": 0.5, "end": 1.0}], sensor_index=1)
+    assert all(not d.online for d in dropped if 0.5 <= d.t < 1.0)
+    assert any(d.online and d.count for d in dropped if d.t >= 1.0)

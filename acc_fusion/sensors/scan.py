@@ -1,11 +1,23 @@
 r"""What every sensor shares: its random streams, its sample clock, and — for the 2-D sensors —
-Poisson clutter, measurement noise and the assembly of a :class:`Detections` frame."""
+Poisson clutter, measurement noise, faults and the assembly of a :class:`Detections` frame.
+
+Faults of the 2-D sensors
+    The 1-D sensors' fault kinds (:mod:`acc_fusion.sensors.faults`, the same :class:`Fault`
+    records) act on a 2-D sensor's whole frame of detections while active: ``dropout`` — no
+    frame (``online`` False); ``stuck`` — the sensor repeats the last frame it output before the
+    fault began (nothing if it never output one); ``bias`` — ``magnitude`` [m] added to every
+    range and ``rate_magnitude`` [m/s] to every range-rate; ``spikes`` — each detection is, with
+    ``probability``, an outlier of :math:`\pm a (1 + U)` on range and range-rate, as in 1-D;
+    ``noise_burst`` — the measurement noise is multiplied by ``magnitude`` while the declared
+    standard deviations stay (the sensor does not know).  The nominal random streams are drawn
+    exactly as without faults (the spikes have a stream of their own), so a faulty run differs
+    from its healthy twin only by the fault."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,6 +25,7 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_range
 from acc_fusion.sensors.detections import CLUTTER, Detections
+from acc_fusion.sensors.faults import Fault
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.objects import ObjectFrame
 
@@ -162,6 +175,7 @@ class Scanner:
         spec: the sensor's performance.
         seed: ``int``, :class:`numpy.random.SeedSequence`, :class:`numpy.random.Generator` or
             ``None`` (fresh entropy); the same seed and frames give the same detections.
+        faults: the sensor's faults (module docstring).
     """
 
     #: The spec class of the sensor (set by subclasses).
@@ -171,22 +185,31 @@ class Scanner:
         self,
         spec: object | None = None,
         seed: int | np.random.SeedSequence | np.random.Generator | None = None,
+        faults: tuple[Fault, ...] = (),
     ) -> None:
         self.spec = self.spec_type() if spec is None else spec
         if not isinstance(self.spec, self.spec_type):
             raise ConfigError(
                 f"spec must be a {self.spec_type.__name__}, got {type(self.spec).__name__}"
             )
-        self._rng, self._rng_clutter = streams(seed, 2)
+        if not all(isinstance(f, Fault) for f in faults):
+            raise ConfigError(f"{self.spec.name} faults must be Fault records")
+        self.faults = tuple(faults)
+        self._rng, self._rng_clutter, self._rng_spikes = streams(seed, 3)
         self.reset()
 
     def reset(self, seed: int | np.random.SeedSequence | np.random.Generator | None = None) -> None:
         """Restart the sample clock for a new run (frame times may start again); with a
         ``seed``, also restart the random streams (without, they continue: fresh noise)."""
         if seed is not None:
-            self._rng, self._rng_clutter = streams(seed, 2)
+            self._rng, self._rng_clutter, self._rng_spikes = streams(seed, 3)
         self._clock = SampleClock(self.spec.rate_hz, self.spec.phase)
         self._t_prev = -math.inf
+        self._held: Detections | None = None
+
+    def faulty(self, t: float) -> bool:
+        """Whether a fault of this sensor is active at ``t``."""
+        return any(f.active(t) for f in self.faults)
 
     def _due(self, frame: ObjectFrame, conditions: Conditions) -> bool:
         """Check the arguments of ``detect`` (types, increasing time); whether it scans."""
@@ -224,12 +247,39 @@ class Scanner:
         clutter = stationary_clutter(
             self._rng_clutter, frame.ego_speed, clutter_rate, limits, half_fov
         )
+        active = [f for f in self.faults if f.active(frame.t)]
+        burst = math.prod(f.magnitude for f in active if f.kind == "noise_burst")
         z = np.concatenate(
             [
-                add_noise(self._rng, found, s.noise_std(found.z[0])),
-                add_noise(self._rng_clutter, clutter, s.noise_std(clutter.z[0])),
+                add_noise(self._rng, found, burst * s.noise_std(found.z[0])),
+                add_noise(self._rng_clutter, clutter, burst * s.noise_std(clutter.z[0])),
             ],
             axis=1,
         )
+        for f in active:
+            if f.kind == "bias":
+                z[0] += f.magnitude
+                z[2] += f.rate_magnitude
+            elif f.kind == "spikes":
+                z += self._spikes(f, z.shape[1])
         declared = s.noise_std(np.maximum(z[0], 0.0))
-        return emit(frame.t, s.name, frame.n_egos, found + clutter, z, declared)
+        out = emit(frame.t, s.name, frame.n_egos, found + clutter, z, declared)
+        kinds = {f.kind for f in active}
+        if "dropout" in kinds:
+            return offline(frame.t, s.name, frame.n_egos)
+        if "stuck" in kinds:
+            held = self._held
+            return (
+                offline(frame.t, s.name, frame.n_egos) if held is None else replace(held, t=frame.t)
+            )
+        self._held = out
+        return out
+
+    def _spikes(self, fault: Fault, k: int) -> np.ndarray:
+        r"""``(3, K)`` outliers of a spikes fault: with ``probability`` per detection,
+        :math:`\pm a (1 + U)` on range and range-rate (none on azimuth)."""
+        rng = self._rng_spikes
+        hit = rng.random(k) < fault.probability
+        size = np.array([fault.magnitude, 0.0, fault.rate_magnitude])[:, None]
+        sign = rng.choice((-1.0, 1.0), (3, k))
+        return np.where(hit, sign * size * (1.0 + rng.random((3, k))), 0.0)

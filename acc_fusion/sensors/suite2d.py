@@ -11,6 +11,7 @@ import numpy as np
 
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.infrared2d import Infrared2D, Infrared2DSpec
 from acc_fusion.sensors.radar2d import Radar2D, Radar2DSpec
 from acc_fusion.sensors.scan import streams
@@ -24,10 +25,15 @@ class Sensors2DConfig:
     Attributes:
         radar: the radar's spec.
         infrared: the thermal camera's spec.
+        radar_faults, infrared_faults: faults injected into each sensor (the kinds of
+            :mod:`acc_fusion.sensors.faults`, acting on whole frames of detections:
+            :mod:`acc_fusion.sensors.scan`).
     """
 
     radar: Radar2DSpec = field(default_factory=Radar2DSpec)
     infrared: Infrared2DSpec = field(default_factory=Infrared2DSpec)
+    radar_faults: tuple[Fault, ...] = ()
+    infrared_faults: tuple[Fault, ...] = ()
 
 
 def sensors_2d(
@@ -47,4 +53,7 @@ def sensors_2d(
     if not isinstance(config, Sensors2DConfig):
         config = from_mapping(Sensors2DConfig, config)
     radar_rng, camera_rng = streams(seed, 2)
-    return [Radar2D(config.radar, radar_rng), Infrared2D(config.infrared, camera_rng)]
+    return [
+        Radar2D(config.radar, radar_rng, config.radar_faults),
+        Infrared2D(config.infrared, camera_rng, config.infrared_faults),
+    ]
