@@ -72,7 +72,7 @@ def small(tmp_path_factory):
         ({"rns": 3}, r"unknown key 'rns' in the sweep config; allowed keys: name, source"),
         ({"runs": 0}, r"runs must be a whole number in \[1, 10000000\], got 0"),
         ({"seeds": [1, 1]}, r"seeds must not repeat"),
-        ({"source": "carla"}, r"source must be one of 'scripted', 'sumo', got 'carla'"),
+        ({"source": "carla"}, r"source must be one of 'scripted', 'sumo', 'world', got 'carla'"),
         ({"base": {"runs": 5}}, r"base.runs is set by the sweep"),
         ({"base": {"scenaro": "ccrs"}}, r"unknown key base.'scenaro' in base; allowed keys"),
         ({"axes": {"wrning.z": [1.0]}}, r"axes key 'wrning.z' must be .*allowed fields: scenario"),
@@ -388,3 +388,20 @@ def test_a_sumo_sweep_records_the_runs_of_sumo(tmp_path):
     assert (rows["steps"] == 50).all()  # 5 s of the ring's 0.1 s steps
     hours = rows.groupby("sumo.penetration")["hours"].first()
     assert 0 < hours[0.5] < hours[1.0]  # fewer equipped vehicles, less exposure
+
+
+def test_a_world_sweep_makes_weather_an_axis(tmp_path):
+    cfg = SweepConfig.from_mapping(
+        {
+            "name": "world-fog",
+            "source": "world",
+            "seeds": [0],
+            "runs": 6,
+            "base": {"methods": ["infrared"], "world": {"scene": "cut_out"}},
+            "axes": {"world.conditions.fog_visibility": [1000.0, 20.0]},
+        }
+    )
+    rows = run_sweep(cfg, tmp_path, progress=False, report=False).rows
+    assert len(rows) == 2 * 6  # two points, six runs, one method
+    seen = rows.groupby("world.conditions.fog_visibility")["relevant_detected"].sum()
+    assert seen[1000.0] > 0 and seen[20.0] == 0  # dense fog blinds the thermal camera

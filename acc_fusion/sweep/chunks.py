@@ -8,6 +8,7 @@ import numpy as np
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.traffic import _run
 from acc_fusion.sweep.columns import COUNT_COLUMNS, ID_COLUMNS, SUM_COLUMNS
 from acc_fusion.sweep.points import Chunk, _sumo_config
@@ -25,7 +26,7 @@ def run_chunk(chunk: Chunk) -> dict[str, list]:
         steps = run.steps
         per_run = {m: _summary_counts(s) for m, s in run.summaries.items()}
     else:
-        result = simulate(sim)
+        result = simulate_world(sim) if point.source == "world" else simulate(sim)
         steps = result.steps
         per_run = {m: s.per_pair for m, s in result.summaries.items()}
     cols: dict[str, list] = {c: [] for c in (*ID_COLUMNS, *point.columns, "fault", "method")}

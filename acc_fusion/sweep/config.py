@@ -12,7 +12,9 @@ Config (TOML or YAML; :class:`SweepConfig`)
     key           meaning (default)
     ============  ================================================================================
     name          label of the sweep and of its default output folder (``"sweep"``)
-    source        truth source, ``"scripted"`` or ``"sumo"`` (``"scripted"``); may also be an axis
+    source        truth source, ``"scripted"``, ``"sumo"`` or ``"world"`` (the 2-D scenes of
+                  :mod:`acc_fusion.sim.world`, whose ``world.scene`` and ``world.conditions.*``
+                  are axes like any other) (``"scripted"``); may also be an axis
     seeds         master seeds, whole numbers >= 0 (``[0]``)
     runs          runs per point and seed (100)
     chunk_runs    runs simulated together in one batched call, a *chunk* (2000)

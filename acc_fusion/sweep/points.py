@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from acc_fusion.sweep.config import Axis, SweepConfig
 
 #: Truth sources a point may use.
-SOURCES = ("scripted", "sumo")
+SOURCES = ("scripted", "sumo", "world")
 
 
 def _canonical(x: object) -> str:
@@ -41,7 +41,7 @@ class Point:
         id: 12 hex digits of the SHA-1 of the settings (stable across axis order).
         params: axis key -> value.
         columns: axis key -> the value as stored in the rows.
-        source: ``"scripted"`` or ``"sumo"``.
+        source: ``"scripted"``, ``"sumo"`` or ``"world"`` (the scripted 2-D scenes).
         sim: the :class:`~acc_fusion.sim.closed_loop.SimConfig` fields (without ``runs`` and
             ``seed``).
         sumo: the SUMO fields (``net`` or ``sumocfg``,
@@ -85,6 +85,11 @@ def _column_value(kind: str, value: object) -> object:
 
 def _fault_label(sim) -> str:
     kinds = [f"{s}:{f.kind}" for s in ("radar", "infrared") for f in getattr(sim, f"{s}_faults")]
+    kinds += [
+        f"{s}:{f.kind}"
+        for s in ("radar", "infrared")
+        for f in getattr(sim.world.sensors, f"{s}_faults")
+    ]
     return "+".join(sorted(set(kinds))) or "none"
 
 
