@@ -306,7 +306,7 @@ class CollisionWarningWorldEnv(gym.Env):
             )
         check_choice("method", method, METHODS)
         self.scene = check_choice("scene", scene, (RANDOM, *SCENES))
-        self.config = replace(config or SimConfig(), runs=1, methods=(method,))
+        self.config = replace(config or SimConfig(), runs=1, methods=(method,), drive=None)
         self.conditions = _conditions(
             self.config.world.conditions if conditions is None else conditions
         )
