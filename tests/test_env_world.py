@@ -106,6 +106,18 @@ def test_a_threshold_policy_on_the_gap_runs_an_episode():
     np.testing.assert_allclose(rewards, expected)
 
 
+def test_the_driver_brakes_for_an_imminent_alert():
+    env = CollisionWarningWorldEnv(scene="lead_brakes")
+
+    def speeds(policy):
+        return np.array([info["ego_speed"] for info in episode(env, 2, policy)[2]])
+
+    quiet = speeds(lambda obs: 0)
+    warned = speeds(lambda obs: 2 if obs[I["track_valid"]] and obs[I["gap"]] < 30.0 else 0)
+    n = min(len(quiet), len(warned))
+    assert np.any(warned[:n] < quiet[:n] - 1.0)
+
+
 @pytest.mark.parametrize(
     "kwargs, message",
     [

@@ -24,6 +24,7 @@ from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig, judge
 from acc_fusion.sim.world import WorldPerception, alert_cause
 from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.driver import Driver
 from acc_fusion.truth.scenes import SCENES, SceneConfig, SceneSource
 from acc_fusion.warning.logic import WarningLogic
 
@@ -73,10 +74,11 @@ class _SeenPerception(WorldPerception):
 
 class _Episode:
     """One run of a scene for one ego: the 2-D pipeline under one method, the oracle on the
-    true in-path lead, and the per-slot memory the observation needs."""
+    true in-path lead, the driver, and the per-slot memory the observation needs."""
 
     def __init__(self, config: SimConfig, reward: RewardConfig, rng: np.random.Generator):
-        s_source, s_perception = np.random.SeedSequence(int(rng.integers(2**63))).spawn(2)
+        root = np.random.SeedSequence(int(rng.integers(2**63)))
+        s_source, s_perception, s_driver = root.spawn(3)
         self.config, self.reward, self.dt = config, reward, config.dt
         self.method = config.methods[0]
         scene = SceneConfig(scene=config.world.scene, runs=1, dt=config.dt)
@@ -84,6 +86,7 @@ class _Episode:
         self.perception = _SeenPerception(config, 1, s_perception)
         self.selector = self.perception.selectors[self.method]
         self.oracle = WarningLogic(config.warning, 1, config.dt)
+        self.driver = Driver(1, config.driver, seed=np.random.default_rng(s_driver))
         slots = self.perception.slots
         self.object_id = np.full((1, slots), -1, dtype=np.int64)
         self.last_seen = np.full((len(SENSOR_NAMES), 1, slots), -np.inf)
@@ -94,9 +97,11 @@ class _Episode:
         self._perceive()
 
     def act(self, action: np.ndarray) -> np.ndarray:
-        """Judge the warnings against this step's oracle, advance one step; the rewards."""
+        """Let the driver hear the warnings, advance one step; the rewards (the warnings
+        judged against this step's oracle)."""
+        brake = self.driver.step(action, self.lead)
         was = self.source.collided.copy()
-        self.source.advance()
+        self.source.advance(brake)
         self.steps += 1
         self.collided = self.source.collided & ~was
         reward = self.reward.reward(action, self.level, self.collided, self.dt)
@@ -190,9 +195,12 @@ class CollisionWarningWorldEnv(gym.Env):
     what the object list adds, and chooses the warning.  The oracle, the same warning rule on
     the true in-path lead, judges the alerts.
 
-    The ego is the scene's attentive IDM driver behind its true in-path lead, **open loop**:
-    the warnings do not change its motion (the scenes have no distracted driver yet; see
-    *Limits of this stage* in the 2-D world guide).
+    The ego is the scene's attentive IDM driver behind its true in-path lead, and the 1-D
+    environment's simulated driver (:class:`~acc_fusion.truth.driver.Driver`, settings
+    ``config.driver``) hears the warnings: after his reaction time he brakes for an imminent
+    alert, at least as hard as his deceleration, until he no longer closes on his true lead
+    (closed loop; so an alert with no lead ahead costs no braking).  The attentive IDM leaves
+    warnings little to prevent: the scenes have no distracted driver yet.
 
     ## Action Space
 
@@ -243,15 +251,16 @@ class CollisionWarningWorldEnv(gym.Env):
     ## Rewards
 
     Those of the 1-D environment (:meth:`RewardConfig.reward`), judged against the oracle on
-    the true in-path lead (:meth:`~acc_fusion.truth.objects.ObjectFrame.lead_frame`): an
+    the true in-path lead (:meth:`~acc_fusion.truth.objects.ObjectFrame.lead_frame`), which
+    the driver watches too: an
     imminent warning on a parked car, a gantry or an adjacent vehicle while the true lead is
     no threat costs ``false_alarm`` per second.
 
     ## Starting State
 
     Drawn with ``self.np_random``: the scene when ``scene="random"``, the conditions when
-    several are given, then the scene's run (its jitter) and the sensor noise.  The same seed
-    gives the same episode.
+    several are given, then the scene's run (its jitter), the sensor noise and the driver.
+    The same seed gives the same episode.
 
     ## Episode End
 
