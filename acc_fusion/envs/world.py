@@ -35,8 +35,6 @@ METHODS = ("centralized", "federated")
 RANDOM = "random"
 #: The keys of ``reset(options=...)``.
 RESET_OPTIONS = ("scene", "conditions")
-#: The camera's index in the fused objects' sensors (and in :data:`SENSOR_NAMES`).
-_CAMERA = SENSOR_NAMES.index("infrared")
 
 
 def _conditions(value) -> tuple[Conditions, ...]:
@@ -132,6 +130,11 @@ class _Episode:
             det = np.take_along_axis(trk.detection, np.maximum(slot, 0), axis=1)
             self.reporting[s] = fused.valid & (slot >= 0) & (det >= 0)
         self.last_seen[self.reporting] = frame.t
+        sel = self.selector.selected
+        rows = np.arange(sel.size)
+        selected_id = np.where(sel >= 0, fused.object_id[rows, np.maximum(sel, 0)], -1)
+        self.selected_since[selected_id != self.selected_id] = frame.t
+        self.selected_id = selected_id
 
     def observe(self) -> tuple[np.ndarray, dict]:
         """The observation ``(1, 24)`` and the info arrays."""
@@ -151,10 +154,6 @@ class _Episode:
             np.where(has[:, None], est.nis[flat], np.nan),
             t - self.last_seen[:, rows, k],
         )
-        selected_id = np.where(has, fused.object_id[rows, k], -1)
-        changed = selected_id != self.selected_id
-        self.selected_id = selected_id
-        self.selected_since = np.where(changed, t, self.selected_since)
         gaps = np.where(sel.in_path, est.x[:, 0].reshape(fused.valid.shape), np.inf)
         second = np.sort(gaps, axis=1)[:, 1] if gaps.shape[1] > 1 else np.full(n, np.inf)
         world = np.column_stack(
@@ -162,7 +161,7 @@ class _Episode:
                 np.where(has, sel.offset[rows, k], 0.0),
                 np.where(has, fused.lateral[rows, k, 1], 0.0),
                 np.where(has, self.v_ego + x[:, 1], 0.0),  # ground speed, as the selection's
-                has & (fused.track[rows, k, _CAMERA] >= 0),
+                has & (fused.track[rows, k, fused.sensors.index("infrared")] >= 0),
                 sel.in_path.sum(axis=1),
                 np.where(np.isfinite(second), second, NO_TRACK_GAP),
                 sel.curvature,
