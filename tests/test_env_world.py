@@ -10,8 +10,10 @@ gym = pytest.importorskip("gymnasium")
 
 import acc_fusion  # noqa: E402,F401  (registers the environments)
 from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.envs.evaluation import evaluate  # noqa: E402
 from acc_fusion.envs.observation import OBS_FIELDS, WORLD_OBS_FIELDS  # noqa: E402
 from acc_fusion.envs.options import RewardConfig  # noqa: E402
+from acc_fusion.envs.policies import SafetyDistancePolicy  # noqa: E402
 from acc_fusion.envs.world import CollisionWarningWorldEnv  # noqa: E402
 from acc_fusion.sim.closed_loop import SimConfig  # noqa: E402
 from acc_fusion.sim.world_config import WorldConfig  # noqa: E402
@@ -116,6 +118,13 @@ def test_the_driver_brakes_for_an_imminent_alert():
     warned = speeds(lambda obs: 2 if obs[I["track_valid"]] and obs[I["gap"]] < 30.0 else 0)
     n = min(len(quiet), len(warned))
     assert np.any(warned[:n] < quiet[:n] - 1.0)
+
+
+def test_the_baselines_and_evaluate_run_in_the_world():
+    env = CollisionWarningWorldEnv(scene="lead_brakes")
+    ev = evaluate(SafetyDistancePolicy(), episodes=2, seed=0, env=env)
+    assert (ev.source, ev.scenario, ev.episodes) == ("world", "lead_brakes", 2)
+    assert ev.summary.warnings > 0
 
 
 @pytest.mark.parametrize(

@@ -319,6 +319,8 @@ class CollisionWarningWorldEnv(gym.Env):
             self.config.world.conditions if conditions is None else conditions
         )
         self.method = method
+        #: The labels :func:`acc_fusion.envs.evaluation.evaluate` gives its table.
+        self.source_name, self.scenario = "world", scene
         self.reward_config = reward or RewardConfig()
         self.max_episode_steps = max_episode_steps
         self.dt = self.config.dt
