@@ -273,7 +273,8 @@ class CollisionWarningWorldEnv(gym.Env):
     mapping of its fields, or a list of them to draw one per episode; ``None``:
     ``config.world.conditions``), ``method`` (one of :data:`METHODS`), ``config``
     (:class:`~acc_fusion.sim.closed_loop.SimConfig`: its ``world`` section sets the sensors,
-    trackers, association and selection; its scene and conditions are the episode's),
+    trackers, association and selection, its ``driver`` the driver, its ``warning`` the
+    oracle; its scene and conditions are the episode's),
     ``reward`` (:class:`RewardConfig`), ``max_episode_steps``.  ``reset(options=...)`` takes
     ``scene`` and ``conditions`` in the same forms for that episode.
 
