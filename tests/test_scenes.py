@@ -89,6 +89,16 @@ def test_a_scene_is_reproducible_from_its_seed():
     np.testing.assert_array_equal(a[50].ego_yaw_rate, b[50].ego_yaw_rate)
 
 
+def test_a_driver_brake_request_overrides_the_idm_where_it_is_harder():
+    config = SceneConfig(scene="gantry_crest", runs=2, dt=0.05)
+    idm, braked = SceneSource(config, 0), SceneSource(config, 0)
+    v0 = idm.frame().ego_speed
+    idm.advance()
+    braked.advance(np.array([0.0, 6.0]))
+    assert braked.frame().ego_speed[0] == idm.frame().ego_speed[0]
+    assert braked.frame().ego_speed[1] == pytest.approx(v0[1] - 6.0 * 0.05)
+
+
 def test_a_bad_scene_or_run_count_is_one_error():
     with pytest.raises(ConfigError, match="scene must be one of"):
         SceneConfig(scene="tunnel")

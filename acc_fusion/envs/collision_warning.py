@@ -12,7 +12,7 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import NONE
 from acc_fusion.core.plots import warning_frame
 from acc_fusion.core.validation import check_choice
-from acc_fusion.envs.core import _Core, _single
+from acc_fusion.envs.core import _check_step, _Core, _single
 from acc_fusion.envs.observation import _HIGH, _LOW
 from acc_fusion.envs.options import (
     EXTERNAL_SOURCES,
@@ -225,12 +225,7 @@ class CollisionWarningEnv(gym.Env):
         return obs[0], _single(info)
 
     def step(self, action):
-        if self._core is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        if not self.action_space.contains(action):
-            raise gym.error.InvalidAction(
-                f"action must be 0, 1 or 2 (none, caution, imminent), got {action!r}"
-            )
+        _check_step(self._core is not None, action, self.action_space)
         core = self._core
         self._history.append((core.t, core.fused_gap[0], core.d_imminent()[0], int(action)))
         del self._history[:-400]

@@ -3,10 +3,10 @@ of episodes, the observation, the reward and the episode's end (:class:`_Core`).
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 
-from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
-from acc_fusion.envs.observation import _HIGH, _LOW, AGE_CLIP, NIS_CLIP, NO_TRACK_GAP
+from acc_fusion.envs.observation import track_entries
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import Perception
 from acc_fusion.truth.driver import Driver
@@ -17,6 +17,17 @@ from acc_fusion.warning.safety import safety_distances
 def _single(info: dict) -> dict:
     """The info of copy 0 of a batched info dict, as plain Python values."""
     return {k: v[0].item() if isinstance(v, np.ndarray) else v for k, v in info.items()}
+
+
+def _check_step(started: bool, action, space) -> None:
+    """Gymnasium's errors for a ``step(action)`` before ``reset()`` or with an ``action`` that
+    is not in ``space`` (the warning levels)."""
+    if not started:
+        raise gym.error.ResetNeeded("call reset() before step()")
+    if not space.contains(action):
+        raise gym.error.InvalidAction(
+            f"action must be 0, 1 or 2 (none, caution, imminent), got {action!r}"
+        )
 
 
 class _Core:
@@ -60,14 +71,13 @@ class _Core:
     def act(self, action: np.ndarray, restart=None, rng=None) -> np.ndarray:
         """Apply the warnings and advance one step; the copies in ``restart`` then start a
         new run (drawn from ``rng``) while the others continue.  Returns the rewards."""
-        reward = self._reward(action, self.seen.oracle)
         brake = self.driver.step(action, self.seen.frame)
         was = self.source.collided
         self.source.advance(brake)
         self.perception.advanced()
         self.steps += 1
         self.collided = self.source.collided & ~was
-        reward -= self.reward.collision * self.collided
+        reward = self.reward.reward(action, self.seen.oracle, self.collided, self.dt)
         if restart is not None and restart.any():
             self.source.restart(restart, np.random.default_rng(int(rng.integers(2**63))))
             self.driver.reset(restart)
@@ -84,19 +94,6 @@ class _Core:
         for i, m in enumerate(self.seen.measurements):
             self.last_seen[i, m.valid] = frame.t
 
-    def _reward(self, action: np.ndarray, oracle: np.ndarray) -> np.ndarray:
-        w = self.reward
-        per_s = np.where(
-            oracle >= IMMINENT,
-            np.where(action >= IMMINENT, w.timely, -w.missed),
-            np.where(
-                action >= IMMINENT,
-                -w.false_alarm,
-                np.where((action == CAUTION) & (oracle == NONE), -w.nuisance, 0.0),
-            ),
-        )
-        return per_s * self.dt
-
     def d_imminent(self) -> np.ndarray:
         """The imminent safety distance of the fused estimate (NaN without a track)."""
         est = self.seen.estimates["federated"]
@@ -112,25 +109,24 @@ class _Core:
     def observe(self, collided: np.ndarray) -> tuple[np.ndarray, dict]:
         """Observations ``(n, 16)`` and the info arrays."""
         p, est = self.seen, self.seen.estimates["federated"]
-        valid = est.valid
-        std = np.sqrt(np.clip(np.diagonal(est.p, axis1=1, axis2=2), 0.0, None))
-        x = np.where(valid[:, None], est.x, [NO_TRACK_GAP, 0.0, 0.0])
-        std = np.where(valid[:, None], std, 0.0)
-        nis = np.where(np.isfinite(est.nis), np.minimum(est.nis, NIS_CLIP), 0.0)
-        age = np.minimum(p.frame.t - self.last_seen, AGE_CLIP)
-        sensors = []
-        for i, m in enumerate(p.measurements):
-            sensors += [m.valid, est.isolated[:, i], nis[:, i], age[i]]
-        obs = np.column_stack([x, std, np.maximum(p.v_ego, 0.0), valid, np.column_stack(sensors)])
-        obs = np.clip(obs, _LOW, _HIGH).astype(np.float32)
-        info = {
-            "t": np.full(self.n, p.frame.t),
-            "oracle": p.oracle.astype(np.int64),
-            "ttc": p.ttc.astype(float),
-            "crash_relevant": p.relevant.copy(),
-            "ego_speed": p.frame.ego_speed.copy(),
-            "gap_true": np.where(p.frame.has_leader, p.frame.gap, np.nan),
-            "collided": collided.copy(),
-            "active": self.source.active.copy(),
-        }
-        return obs, info
+        age = p.frame.t - self.last_seen
+        reporting = [m.valid for m in p.measurements]
+        obs = track_entries(est.x, est.p, est.valid, p.v_ego, reporting, est.isolated, est.nis, age)
+        info = truth_info(p.frame, p.oracle, p.ttc, p.relevant, collided, self.source.active)
+        return obs.astype(np.float32), info
+
+
+def truth_info(frame, oracle, ttc, relevant, collided, active) -> dict[str, np.ndarray]:
+    """The info arrays of every environment: what truth says at ``frame`` (the 1-D truth of
+    the egos and their leads), from :func:`acc_fusion.sim.closed_loop.judge`'s ``oracle``,
+    ``ttc`` and ``relevant``, and which copies ``collided`` in the step and are ``active``."""
+    return {
+        "t": np.full(frame.ego_speed.shape, frame.t),
+        "oracle": oracle.astype(np.int64),
+        "ttc": ttc.astype(float),
+        "crash_relevant": relevant.copy(),
+        "ego_speed": frame.ego_speed.copy(),
+        "gap_true": np.where(frame.has_leader, frame.gap, np.nan),
+        "collided": collided.copy(),
+        "active": active.copy(),
+    }

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.validation import check_range
 from acc_fusion.truth.highway.config import HighwayConfig
 from acc_fusion.truth.sumo.config import SumoConfig, check_sumocfg
@@ -45,6 +46,23 @@ class RewardConfig:
     def __post_init__(self) -> None:
         for name in ("false_alarm", "missed", "timely", "nuisance", "collision"):
             check_range(f"reward.{name}", getattr(self, name), 0.0, 1e6)
+
+    def reward(
+        self, action: np.ndarray, oracle: np.ndarray, collided: np.ndarray, dt: float
+    ) -> np.ndarray:
+        """Rewards ``(n,)`` of one step of ``dt`` seconds: the warning ``action`` judged against
+        the ``oracle``'s level at the step's start, and ``collided`` in the step (weights: the
+        class docstring)."""
+        per_s = np.where(
+            oracle >= IMMINENT,
+            np.where(action >= IMMINENT, self.timely, -self.missed),
+            np.where(
+                action >= IMMINENT,
+                -self.false_alarm,
+                np.where((action == CAUTION) & (oracle == NONE), -self.nuisance, 0.0),
+            ),
+        )
+        return per_s * dt - self.collision * collided
 
 
 #: Window of simulated time after an episode's start [s] in which the leader's emergency

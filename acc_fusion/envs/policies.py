@@ -2,9 +2,11 @@ r"""Baseline warning policies for the collision-warning environment.
 
 A *policy* maps what the fusion center knows (an observation of
 :class:`acc_fusion.envs.collision_warning.CollisionWarningEnv`, the entries named by
-:data:`~acc_fusion.envs.observation.OBS_FIELDS`) to a warning level: 0 none, 1 caution,
-2 imminent (:data:`~acc_fusion.core.levels.NONE`, :data:`~acc_fusion.core.levels.CAUTION`,
-:data:`~acc_fusion.core.levels.IMMINENT`).  Every baseline here is a small class with
+:data:`~acc_fusion.envs.observation.OBS_FIELDS`, which also begin an observation of the world
+environment :class:`acc_fusion.envs.world.CollisionWarningWorldEnv`) to a warning level: 0 none,
+1 caution, 2 imminent (:data:`~acc_fusion.core.levels.NONE`,
+:data:`~acc_fusion.core.levels.CAUTION`, :data:`~acc_fusion.core.levels.IMMINENT`).  Every
+baseline here is a small class with
 
 * ``policy(obs) -> int`` for one observation ``(F,)``, and an ``(B,)`` int8 array for a batch
   ``(B, F)`` (e.g. the observations of a vector environment);
@@ -36,7 +38,7 @@ safety distances :math:`(d_C, d_I) = ` :func:`acc_fusion.warning.safety.safety_d
 ego-motion filter.  :data:`BASELINES` holds one ready instance of each.
 
 >>> import numpy as np
->>> from acc_fusion.envs.observation import OBS_FIELDS
+>>> from acc_fusion.envs.observation import OBS_FIELDS, WORLD_OBS_FIELDS
 >>> obs = np.zeros(len(OBS_FIELDS), dtype=np.float32)
 >>> obs[[OBS_FIELDS.index(f) for f in ("gap", "range_rate", "ego_speed", "track_valid")]] = (
 ...     10.0, -10.0, 20.0, 1.0)
@@ -53,7 +55,7 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.validation import check_choice, check_range
-from acc_fusion.envs.observation import OBS_FIELDS
+from acc_fusion.envs.observation import OBS_FIELDS, WORLD_OBS_FIELDS
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
 from acc_fusion.warning.safety import SAFETY_MODELS, safety_distances
 from acc_fusion.warning.ttc import time_to_collision
@@ -73,15 +75,17 @@ def obs_field(obs: np.ndarray, name: str) -> np.ndarray:
 
 
 def _as_batch(obs: object) -> tuple[np.ndarray, bool]:
-    """``obs`` as a float ``(B, F)`` array, and whether it was a single observation."""
+    """``obs`` as a float ``(B, F)`` array, and whether it was a single observation.  An
+    observation of the world environment (:data:`WORLD_OBS_FIELDS`) starts with the
+    :data:`OBS_FIELDS` of its selected object, which the baselines read."""
     arr = np.asarray(obs, dtype=float)
-    n = len(OBS_FIELDS)
-    if arr.ndim not in (1, 2) or arr.shape[-1] != n:
+    n, m = len(OBS_FIELDS), len(WORLD_OBS_FIELDS)
+    if arr.ndim not in (1, 2) or arr.shape[-1] not in (n, m):
         raise InputError(
-            f"obs must be one observation ({n},) or a batch (B, {n}) of the collision-warning "
-            f"environment, got shape {arr.shape}"
+            f"obs must be one observation ({n},) or ({m},) or a batch (B, {n}) or (B, {m}) of "
+            f"the collision-warning environments, got shape {arr.shape}"
         )
-    return arr.reshape(-1, n), arr.ndim == 1
+    return arr.reshape(-1, arr.shape[-1]), arr.ndim == 1
 
 
 class Policy:

@@ -398,8 +398,13 @@ class SceneSource:
             lane=lane, lead=lead, lateral_speed=d_rate,
         )  # fmt: skip
 
-    def advance(self) -> None:
-        """One step: the egos follow their leads with the IDM; a gap <= 0 is a collision."""
+    def advance(self, ego_brake: np.ndarray | None = None) -> None:
+        r"""One step: the egos follow their leads with the IDM; a gap <= 0 is a collision.
+
+        ``ego_brake (N,)`` [m/s², >= 0] is the deceleration a driver requests (reacting to a
+        warning, :class:`acc_fusion.truth.driver.Driver`); where it is positive the ego
+        brakes at least that hard: :math:`a = \min(a_\text{IDM}, -b)`.  ``None``: the IDM alone.
+        """
         dt, act, sc = self.config.dt, self.scene.actors, self.scene
         s, v, _, d, _ = act.centre(self.t)
         lead, gap = self._lead(s, d, act.kind)
@@ -409,6 +414,9 @@ class SceneSource:
         hit = has & (gap <= 0.0)
         self.collided |= hit
         accel = IDM.accel(self._v, sc.ego_desired_speed, sc.ego_headway, gap, v_lead, has)
+        if ego_brake is not None:
+            brake = np.asarray(ego_brake, dtype=float)
+            accel = np.where(brake > 0.0, np.minimum(accel, -brake), accel)
         accel = np.where(self.collided, 0.0, accel)
         v_new = np.maximum(self._v + accel * dt, 0.0)
         self._v = np.where(self.collided, v_lead, v_new)

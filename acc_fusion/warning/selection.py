@@ -55,6 +55,8 @@ from acc_fusion.core.validation import check_choice, check_range
 PATHS = ("straight", "yaw_rate", "lane")
 #: Policies for stationary objects.
 STATIONARY_POLICIES = ("all", "confirmed", "ignore")
+#: Widest half corridor the selection accepts [m].
+MAX_HALF_WIDTH = 20.0
 
 
 @dataclass(frozen=True)
@@ -79,7 +81,7 @@ class SelectionConfig:
     def __post_init__(self) -> None:
         check_choice("selection.path", self.path, PATHS)
         check_choice("selection.stationary", self.stationary, STATIONARY_POLICIES)
-        check_range("selection.half_width", self.half_width, 0.0, 20.0, lo_open=True)
+        check_range("selection.half_width", self.half_width, 0.0, MAX_HALF_WIDTH, lo_open=True)
         check_range("selection.stationary_speed", self.stationary_speed, 0.0, 50.0)
         check_range("selection.min_speed", self.min_speed, 0.0, 50.0, lo_open=True)
 
@@ -99,7 +101,11 @@ class InPathSelector(PairState):
     """Selects the in-path object of E egos among F object slots each, step by step.
 
     It remembers, per slot, whether the object in it has been seen moving (a slot's memory
-    starts afresh when its object id changes).
+    starts afresh when its object id changes).  After each :meth:`step` it holds that step's
+    path and corridor for observers (the world environment's observation): ``curvature (E,)``
+    of the predicted path [1/m], ``offset (E, F)`` each object's lateral offset from it,
+    :math:`y - y_p(x)` [m], ``in_path (E, F)`` the objects it could select and ``selected
+    (E,)`` the slot it returned.
     """
 
     _PAIR_AXES = {"_ids": 0, "_moved": 0}
@@ -108,6 +114,10 @@ class InPathSelector(PairState):
         self.config = config
         self._ids = np.full((n_egos, n_slots), -1, dtype=np.int64)
         self._moved = np.zeros((n_egos, n_slots), dtype=bool)
+        self.curvature = np.zeros(n_egos)
+        self.offset = np.zeros((n_egos, n_slots))
+        self.in_path = np.zeros((n_egos, n_slots), dtype=bool)
+        self.selected = np.full(n_egos, -1, dtype=np.int64)
 
     def step(
         self,
@@ -140,15 +150,19 @@ class InPathSelector(PairState):
         self._ids = object_id.copy()
         stationary = np.abs(ground_speed) < cfg.stationary_speed
         self._moved |= used & ~stationary
-        kappa = path_curvature(cfg, speed, yaw_rate, road_curvature)[:, None]
-        in_path = used & (x > 0.0) & (np.abs(y - 0.5 * kappa * x * x) <= cfg.half_width)
+        kappa = path_curvature(cfg, speed, yaw_rate, road_curvature)
+        offset = y - 0.5 * kappa[:, None] * x * x
+        in_path = used & (x > 0.0) & (np.abs(offset) <= cfg.half_width)
         if cfg.stationary == "ignore":
             in_path &= ~stationary
         elif cfg.stationary == "confirmed":
             in_path &= ~stationary | confirmed | self._moved
+        self.curvature, self.offset, self.in_path = kappa, offset, in_path
         distance = np.where(in_path, x, np.inf)
         if not distance.shape[1]:
-            return np.full(distance.shape[0], -1, dtype=np.int64)
+            self.selected = np.full(distance.shape[0], -1, dtype=np.int64)
+            return self.selected
         best = np.argmin(distance, axis=1)
         rows = np.arange(distance.shape[0])
-        return np.where(np.isfinite(distance[rows, best]), best, -1).astype(np.int64)
+        self.selected = np.where(np.isfinite(distance[rows, best]), best, -1).astype(np.int64)
+        return self.selected
