@@ -109,6 +109,12 @@ class InPathSelector(PairState):
         self._ids = np.full((n_egos, n_slots), -1, dtype=np.int64)
         self._moved = np.zeros((n_egos, n_slots), dtype=bool)
 
+    def forget(self, egos: np.ndarray) -> None:
+        """Forget what was seen of the objects of ``egos`` (a boolean mask ``(E,)``), e.g. a
+        slot that a new vehicle took."""
+        self._ids[egos] = -1
+        self._moved[egos] = False
+
     def step(
         self,
         object_id: np.ndarray,
