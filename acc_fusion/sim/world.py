@@ -243,10 +243,7 @@ def simulate_world(
                   leave=False):  # fmt: skip
         frame, active, collided = source.frame(), source.active, source.collided
         new = source.reassigned if slotted else None
-        k = extent.size
-        if extent.fit(active) != k:
-            k = extent.size
-            resize_all(stages, k)
+        k = extent.fit_stages(active, stages)
         if k < n:
             frame, active, collided = frame.head(k), active[:k], collided[:k]
             new = new[:k]
