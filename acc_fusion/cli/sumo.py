@@ -35,7 +35,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "alarms per hour and per 100 km, miss rate, lead time and collisions, with 95% "
         "intervals, the oracle's TTC against SUMO's SSM device, the alerts by class judged "
         "from truth, and the crashes FCW avoids (paired by vehicle, bootstrap interval). "
-        "The equipped drivers look away from the road now and then (--distraction).",
+        "The equipped drivers look away from the road now and then (--distraction). "
+        "With --world, the 2-D object pipeline instead, open loop (FCW off).",
     )
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--net", help="bundled network: motorway, onramp, ring, arterial")
