@@ -212,8 +212,8 @@ class SumoObjects:
         self._frame: ObjectFrame | None = None
         # Per vehicle (by object id): edge row and lane index at the last frame, time of its
         # last lane change and the lateral speed given it (module docstring).
-        self._lc_lane = np.full((2, 0), -1, dtype=np.int64)
-        self._lc = np.zeros((2, 0))
+        self._last_lane = np.full((2, 0), -1, dtype=np.int64)
+        self._lane_change = np.zeros((2, 0))
 
     def _statics(self, vid: str) -> tuple[float, float, float, float, float]:
         """Length, width, height [m], rcs [dBsm] and thermal contrast [K] of a vehicle (read
@@ -250,25 +250,25 @@ class SumoObjects:
     def _lateral_speed(self, t: float, oid: np.ndarray, edge: np.ndarray, lane: np.ndarray):
         """``(n,)`` lateral speed [m/s] of the vehicles ``oid`` now on ``lane`` of ``edge``
         (module docstring)."""
-        if oid.size and oid.max() >= self._lc.shape[1]:  # room for the new ids
+        if oid.size and oid.max() >= self._lane_change.shape[1]:  # room for the new ids
             room = 2 * int(oid.max()) + 64
             grown = np.full((2, room), -1, dtype=np.int64)
-            grown[:, : self._lc_lane.shape[1]] = self._lc_lane
+            grown[:, : self._last_lane.shape[1]] = self._last_lane
             times = np.zeros((2, room))
             times[0] = -math.inf
-            times[:, : self._lc.shape[1]] = self._lc
-            self._lc_lane, self._lc = grown, times
+            times[:, : self._lane_change.shape[1]] = self._lane_change
+            self._last_lane, self._lane_change = grown, times
         lanes = self.lanes
-        last_edge, last_lane = self._lc_lane[:, oid]
+        last_edge, last_lane = self._last_lane[:, oid]
         changed = np.flatnonzero((edge >= 0) & (edge == last_edge) & (lane != last_lane))
         if changed.size:
             row = lanes.first_lane[edge[changed]] + lane[changed]
             side = np.sign(lane[changed] - last_lane[changed])
-            self._lc[0, oid[changed]] = t
-            self._lc[1, oid[changed]] = side * lanes.width[row] / LANE_CHANGE_DURATION
-        self._lc_lane[0, oid], self._lc_lane[1, oid] = edge, lane
-        recent = t - self._lc[0, oid] < LANE_CHANGE_DURATION
-        return np.where(recent, self._lc[1, oid], 0.0)
+            self._lane_change[0, oid[changed]] = t
+            self._lane_change[1, oid[changed]] = side * lanes.width[row] / LANE_CHANGE_DURATION
+        self._last_lane[0, oid], self._last_lane[1, oid] = edge, lane
+        recent = t - self._lane_change[0, oid] < LANE_CHANGE_DURATION
+        return np.where(recent, self._lane_change[1, oid], 0.0)
 
     def _vehicles(self, t: float) -> tuple[list[str], dict[str, np.ndarray]]:
         """The state of every vehicle the source knows at time ``t``, ``(n,)`` arrays in the
