@@ -3,7 +3,7 @@
 Runs ``<SUMO_HOME>/tools/game/A10KW.sumocfg`` (an OpenStreetMap motorway interchange scenario
 of SUMO's game, shipped in the eclipse-sumo wheel: 0.5 s steps, about 470 vehicles at 300 s,
 1794 edges) with the
-SUMO options of :func:`acc_fusion.truth.sumo.launch.sumo_command` and the same seed, three
+SUMO options of :func:`acc_fusion.truth.sumo.launch.sumo_command` and the same seed, four
 times, each in a fresh process (libsumo allows one simulation per process), one after the
 other:
 
@@ -12,16 +12,22 @@ other:
   (``penetration`` 1, as ``acc-fusion sumo --sumocfg`` does by default), frames made and
   nothing done with them;
 * **objects**: the same source plus :meth:`acc_fusion.truth.sumo.objects.SumoObjects.frame`
-  at every step (every vehicle, the roadside objects, the per-ego search and transform).
+  at every step (every vehicle, the roadside objects, the per-ego search and transform);
+* **pipeline**: :func:`acc_fusion.sim.world.simulate_world` on
+  :class:`~acc_fusion.truth.sumo.objects.SumoWorld` — the objects, the 2-D radar and thermal
+  camera, a tracker per sensor, the track-to-track association, all four methods' estimators
+  on every associated object, in-path selection, warning, oracle and metrics — with the
+  default config (``world.*``, day), over the occupied prefix of the slots.
 
 Each run simulates the same ``--warmup`` seconds (30) untimed — the network fills, numba
-loads its compiled kernels — then is timed from there to ``--end`` (300 s).  A run is a list
-of per-step stages (:data:`RUNS`: made from the open source, each called after every step):
-the later sensors, trackers and fusion are further stages.  It prints each run's wall time
-and its ratio to bare, the egos per step and objects per ego (means over the timed steps),
-each run's resident memory (current and peak) at the start and the end of its timed part
-(memory must stay flat: the objects run may grow only as bare SUMO does, with the number of
-vehicles), and as its last line ``overhead_ratio=<objects wall time / bare wall time>``.
+loads its compiled kernels (the pipeline runs ``simulate_world`` over the warm-up too, then
+afresh over the timed part) — then is timed from there to ``--end`` (300 s).  It prints each
+run's wall time and its ratio to bare, the egos per step and objects per ego (means over the
+timed steps), each run's resident memory (current and peak) at the start and the end of its
+timed part (memory must stay flat: a run may grow only as bare SUMO does, with the number of
+vehicles), the pipeline's time per stage (each stage's methods timed in its process:
+:data:`STAGES`), ``objects_ratio=<objects wall time / bare wall time>`` and as its last line
+``overhead_ratio=<pipeline wall time / bare wall time>``.
 
     python scripts/bench_world.py               # 300 s simulated
     python scripts/bench_world.py --end 1800 --capacity 2048  # the half hour: memory check
@@ -30,6 +36,8 @@ vehicles), and as its last line ``overhead_ratio=<objects wall time / bare wall 
 from __future__ import annotations
 
 import argparse
+import functools
+import importlib
 import multiprocessing
 import os
 import resource
@@ -49,36 +57,55 @@ def _object_stages(source) -> list[Callable[[], object]]:
     return [SumoObjects(source).frame]
 
 
-#: Per run: a factory of its per-step stages, given the open source (``None``: bare SUMO).
-RUNS: dict[str, Callable | None] = {
-    "bare": None,
-    "source": lambda source: [],
-    "objects": _object_stages,
-}
+#: The pipeline's stages and the methods timed as each: (module, class or None, name).
+STAGES = {
+    "sumo": [("acc_fusion.truth.sumo.source", "SumoSource", "advance")],
+    "objects": [("acc_fusion.truth.sumo.objects", "SumoObjects", "frame")],
+    "sensors": [("acc_fusion.sensors.radar2d", "Radar2D", "detect"),
+                ("acc_fusion.sensors.infrared2d", "Infrared2D", "detect")],
+    "trackers": [("acc_fusion.fusion.tracking.tracker", "Tracker", "step")],
+    "association": [("acc_fusion.fusion.tracking.association", "TrackAssociator", "step"),
+                    ("acc_fusion.sim.world", None, "fused_measurements")],
+    "estimators": [("acc_fusion.fusion.base", "Estimator", "step")],
+    "selection": [("acc_fusion.sim.world", "WorldPerception", "_select")],
+    "warning": [("acc_fusion.warning.logic", "WarningLogic", "step")],
+    "metrics": [("acc_fusion.metrics.events", "FCWMetrics", "update"),
+                ("acc_fusion.sim.world", None, "alert_cause")],
+}  # fmt: skip
 
 
-def _rss_mb() -> tuple[float, float]:
-    """Current and peak resident memory of this process [MB] (Linux /proc for the current)."""
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20, peak
-    except OSError:
-        return peak, peak
+def _time_stages() -> dict[str, float]:
+    """Wrap every method of :data:`STAGES` (in this process) to add its wall time to its
+    stage; the seconds per stage, filled as the pipeline runs."""
+    spent = dict.fromkeys(STAGES, 0.0)
+
+    def timed(stage, func):
+        @functools.wraps(func)
+        def wrapper(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return func(*args, **kwargs)
+            finally:
+                spent[stage] += time.perf_counter() - t0
+
+        return wrapper
+
+    for stage, methods in STAGES.items():
+        for module, cls, name in methods:
+            owner = importlib.import_module(module)
+            owner = owner if cls is None else getattr(owner, cls)
+            setattr(owner, name, timed(stage, getattr(owner, name)))
+    return spent
 
 
-def _run(name: str, sumocfg: str, end: float, warmup: float, seed: int, capacity: int) -> dict:
-    """One run of :data:`RUNS`: its timed wall time, steps, egos and objects, memory."""
-    from acc_fusion.truth.sumo.config import SumoConfig
-
-    config = SumoConfig(sumocfg=sumocfg, end=end, seed=seed, capacity=capacity, extra_args=QUIET)
-    if RUNS[name] is None:
-        return _bare(config, end, warmup)
+def _staged(factory: Callable, config, end: float, warmup: float) -> dict:
+    """A run of per-step stages (``factory``: made from the open source, each called after
+    every step): its timed wall time, steps, egos and objects, memory."""
     from acc_fusion.truth.sumo.source import SumoSource
 
     egos = objects = 0
     with SumoSource(config) as source:
-        stages = RUNS[name](source)
+        stages = factory(source)
         while source.t < source.begin + warmup - 1e-9:
             source.advance()
             for stage in stages:
@@ -100,8 +127,53 @@ def _run(name: str, sumocfg: str, end: float, warmup: float, seed: int, capacity
             "rss_start": rss_start, "rss_end": rss_end}  # fmt: skip
 
 
+def _pipeline(config, end: float, warmup: float) -> dict:
+    """``simulate_world`` on the SUMO source over the warm-up, then afresh, timed, to the
+    end, with the time of every stage of :data:`STAGES`."""
+    from acc_fusion.sim.closed_loop import SimConfig
+    from acc_fusion.sim.world import simulate_world
+    from acc_fusion.truth.sumo.objects import SumoWorld
+    from acc_fusion.truth.sumo.source import SumoSource
+
+    class Until(SumoWorld):
+        """The source, done at the end of the warm-up."""
+
+        @property
+        def done(self) -> bool:
+            return self.source.done or self.source.t >= self.source.begin + warmup - 1e-9
+
+    with SumoSource(config) as source:
+        sim = SimConfig(runs=1, dt=source.dt)
+        simulate_world(sim, source=Until(source))
+        spent = _time_stages()
+        rss_start, t0 = _rss_mb(), time.perf_counter()
+        result = simulate_world(sim, source=SumoWorld(source))
+        elapsed = time.perf_counter() - t0
+        rss_end = _rss_mb()
+    return {"wall": elapsed, "steps": result.steps, "egos": 0, "objects": 0,
+            "rss_start": rss_start, "rss_end": rss_end, "stages": spent}  # fmt: skip
+
+
+def _rss_mb() -> tuple[float, float]:
+    """Current and peak resident memory of this process [MB] (Linux /proc for the current)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20, peak
+    except OSError:
+        return peak, peak
+
+
+def _run(name: str, sumocfg: str, end: float, warmup: float, seed: int, capacity: int) -> dict:
+    """One run of :data:`RUNS`."""
+    from acc_fusion.truth.sumo.config import SumoConfig
+
+    config = SumoConfig(sumocfg=sumocfg, end=end, seed=seed, capacity=capacity, extra_args=QUIET)
+    return RUNS[name](config, end, warmup)
+
+
 def _bare(config, end: float, warmup: float) -> dict:
-    """SUMO alone on the source's command line, warm-up and timed part as :func:`_run`."""
+    """SUMO alone on the source's command line, warm-up and timed part as :func:`_staged`."""
     import libsumo
 
     from acc_fusion.truth.sumo.launch import sumo_command
@@ -119,6 +191,15 @@ def _bare(config, end: float, warmup: float) -> dict:
         libsumo.close()
     return {"wall": elapsed, "steps": steps, "egos": 0, "objects": 0,
             "rss_start": rss_start, "rss_end": _rss_mb()}  # fmt: skip
+
+
+#: Per run: its function of (SUMO config, end, warm-up) giving its timed figures.
+RUNS: dict[str, Callable[..., dict]] = {
+    "bare": _bare,
+    "source": functools.partial(_staged, lambda source: []),
+    "objects": functools.partial(_staged, _object_stages),
+    "pipeline": _pipeline,
+}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -156,11 +237,17 @@ def main(argv: list[str] | None = None) -> None:
               f"ratio {r['wall'] / bare['wall']:5.2f}  RSS {r['rss_start'][0]:.0f} -> "
               f"{r['rss_end'][0]:.0f} MB, peak {r['rss_start'][1]:.0f} -> "
               f"{r['rss_end'][1]:.0f} MB")  # fmt: skip
-    obj = res["objects"]
+    obj, pipe = res["objects"], res["pipeline"]
     print(f"egos per step {obj['egos'] / obj['steps']:.1f}, "
           f"objects per ego {obj['objects'] / max(obj['egos'], 1):.1f}")  # fmt: skip
+    spent = pipe["stages"]
+    print("pipeline by stage (s, ms/step, share of the pipeline's wall time):")
+    for stage, sec in [*spent.items(), ("other", pipe["wall"] - sum(spent.values()))]:
+        print(f"  {stage:12s} {sec:7.2f} s  {1e3 * sec / pipe['steps']:6.2f} ms/step  "
+              f"{sec / pipe['wall']:6.1%}")  # fmt: skip
     print(f"source_ratio={res['source']['wall'] / bare['wall']:.3f}")
-    print(f"overhead_ratio={obj['wall'] / bare['wall']:.3f}")
+    print(f"objects_ratio={obj['wall'] / bare['wall']:.3f}")
+    print(f"overhead_ratio={pipe['wall'] / bare['wall']:.3f}")
 
 
 if __name__ == "__main__":

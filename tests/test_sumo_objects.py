@@ -5,6 +5,7 @@ every test of the module."""
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -15,11 +16,20 @@ import pytest
 
 libsumo = pytest.importorskip("libsumo")
 
+from acc_fusion.cli.main import build_parser, main  # noqa: E402
+from acc_fusion.cli.sumo import run as sumo_command  # noqa: E402
 from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.sim.world import LANE_CHANGE_SPEED  # noqa: E402
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig  # noqa: E402
 from acc_fusion.truth.sumo.nets import bundled_nets  # noqa: E402
-from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects, _path_offset  # noqa: E402
+from acc_fusion.truth.sumo.objects import (  # noqa: E402
+    LANE_CHANGE_DURATION,
+    ObjectFieldConfig,
+    SumoObjects,
+    SumoWorld,
+    _path_offset,
+)
 from acc_fusion.truth.sumo.roadside import (  # noqa: E402
     ROADSIDE_ID_BASE,
     RoadsideConfig,
@@ -278,3 +288,46 @@ def test_the_world_benchmark_runs_and_ends_with_the_overhead_ratio():
     bad = subprocess.run([*cmd[:2], "--warmup", "50", "--end", "40"], capture_output=True,
                          text=True, timeout=60, env=env)  # fmt: skip
     assert bad.returncode == 2 and "--warmup < --end" in bad.stderr
+
+
+def test_a_lane_change_gives_lateral_speed_for_the_lane_change_duration():
+    config = SumoConfig(str(bundled_nets()["motorway"]), end=120, seed=3)
+    with SumoSource(config) as src:
+        world = SumoWorld(src)
+        moving: dict[int, dict[float, float]] = {}  # object id -> {t: lateral speed}
+        while not world.done:
+            world.advance()
+            frame = world.frame()
+            side = frame.valid & (frame.lateral_speed != 0)
+            for oid, v in zip(frame.object_id[side], frame.lateral_speed[side], strict=True):
+                moving.setdefault(int(oid), {})[frame.t] = float(v)
+        dt = src.dt
+    assert moving, "no lane change in 120 s of motorway"
+    speeds = np.abs([v for seen in moving.values() for v in seen.values()])
+    assert np.all((speeds > LANE_CHANGE_SPEED) & (speeds < 1.0))  # w / 4.6 s, w about 3-4 m
+    # a lane change lasts LANE_CHANGE_DURATION: seen moving sideways over several steps (a
+    # vehicle may change lanes again meanwhile)
+    assert max(map(len, moving.values())) >= round(LANE_CHANGE_DURATION / dt)
+
+
+def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_path, capsys):
+    args = ["sumo", "--world", "--net", "motorway", "--end", "45", "--conditions", "day",
+            "night+fog=60", "--out", str(tmp_path)]  # fmt: skip
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    for title in ("Alerts by class, motorway, day", "Alerts by class, motorway, night, fog 60 m",
+                  "Nuisance and sensing-false alerts by cause, SUMO motorway"):  # fmt: skip
+        assert title in out
+    data = json.loads((tmp_path / "sumo_world_motorway_seed0.json").read_text())
+    for label in ("day", "night, fog 60 m"):
+        for method, s in data[label].items():
+            assert s["km"] > 0, method
+            for c in ("crash_relevant", "nuisance", "sensing_false"):
+                assert sum(s["by_cause"][c].values()) == s[c], (label, method, c)
+    assert (tmp_path / "sumo_world_motorway_seed0_causes.csv").exists()
+
+
+def test_conditions_need_the_world():
+    args = build_parser().parse_args(["sumo", "--net", "motorway", "--conditions", "day"])
+    with pytest.raises(ConfigError, match="add --world"):
+        sumo_command(args)

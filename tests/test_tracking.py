@@ -357,3 +357,57 @@ def test_the_association_is_sticky_and_a_new_pairing_is_a_new_object():
 def _no_detections(sensor):
     empty, none = np.zeros(0), np.zeros(0, np.int64)
     return Detections(0.0, sensor, 1, True, none, *(empty,) * 6, none, none.astype(np.int8))
+
+
+def test_forget_drops_one_egos_tracks_and_objects_and_ids_are_never_reused(rng):
+    scene = _two_sensor_scene()
+    cfg = TrackerConfig()
+    trackers = [Tracker("radar", cfg, 2), Tracker("infrared", cfg, 2)]
+    assoc = TrackAssociator(AssociationConfig(), 2, (cfg.max_tracks, cfg.max_tracks))
+
+    def step(i):
+        t = i * DT
+        dets = [detect(scene, t, tr.sensor, rng) for tr in trackers]
+        tracks = [
+            tr.step(d, scene.speed, scene.yaw_rate, DT)
+            for tr, d in zip(trackers, dets, strict=True)
+        ]
+        return tracks, assoc.step(*tracks)
+
+    for i in range(40):
+        tracks, fused = step(i)
+    before = fused.object_id[1].copy()
+    last_ids = [int(t.track_id.max()) for t in tracks] + [int(fused.object_id.max())]
+    ego0 = np.array([True, False])
+    for tr in trackers:
+        tr.forget(ego0)
+    assoc.forget(ego0)
+    tracks, fused = step(40)
+    assert not fused.valid[0].any() and not tracks[0].confirmed[0].any()
+    np.testing.assert_array_equal(fused.object_id[1], before)  # ego 1 carries on
+    for i in range(41, 60):
+        tracks, fused = step(i)
+    assert fused.valid[0].any()
+    for t, last in zip(tracks, last_ids, strict=False):
+        assert t.track_id[0][t.valid[0]].min() > last
+    assert fused.object_id[0][fused.valid[0]].min() > last_ids[2]
+
+
+def test_trackers_and_the_associator_resize_to_a_prefix_and_back(rng):
+    scene = _two_sensor_scene()
+    cfg = TrackerConfig()
+    radar = Tracker("radar", cfg, 2)
+    infrared = Tracker("infrared", cfg, 2)
+    assoc = TrackAssociator(AssociationConfig(), 2, (cfg.max_tracks, cfg.max_tracks))
+    for i in range(30):
+        d = [detect(scene, i * DT, s, rng) for s in ("radar", "infrared")]
+        fused = assoc.step(radar.step(d[0], scene.speed, scene.yaw_rate, DT),
+                           infrared.step(d[1], scene.speed, scene.yaw_rate, DT))  # fmt: skip
+    for part in (radar, infrared, assoc):
+        part.resize(1)
+        assert part.n_egos == 1
+        part.resize(2)
+    d = [detect(scene, 30 * DT, s, rng, p_detect=0.0) for s in ("radar", "infrared")]
+    again = assoc.step(radar.step(d[0], scene.speed, scene.yaw_rate, DT),
+                       infrared.step(d[1], scene.speed, scene.yaw_rate, DT))  # fmt: skip
+    np.testing.assert_array_equal(again.object_id, fused.object_id)  # coasting: the same

@@ -1,4 +1,5 @@
-"""``acc-fusion sumo``: FCW in SUMO traffic, FCW off and on on the same seed."""
+"""``acc-fusion sumo``: FCW in SUMO traffic, FCW off and on on the same seed; with ``--world``
+the 2-D object pipeline in the same traffic, open loop, alerts by class and cause."""
 
 from __future__ import annotations
 
@@ -8,12 +9,17 @@ from acc_fusion.cli.common import (
     add_sim_arguments,
     add_traffic_arguments,
     positive_float,
+    sim_config,
     traffic_config,
     traffic_sim_config,
     write_study,
+    write_summary,
 )
-from acc_fusion.core.outputs import output_dir
+from acc_fusion.cli.world import parse_conditions
+from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.outputs import output_dir, write_csv_atomic
 from acc_fusion.studies.traffic import sumo_study
+from acc_fusion.studies.world import sumo_world_study
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
@@ -29,7 +35,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "alarms per hour and per 100 km, miss rate, lead time and collisions, with 95% "
         "intervals, the oracle's TTC against SUMO's SSM device, the alerts by class judged "
         "from truth, and the crashes FCW avoids (paired by vehicle, bootstrap interval). "
-        "The equipped drivers look away from the road now and then (--distraction).",
+        "The equipped drivers look away from the road now and then (--distraction). "
+        "With --world, the 2-D object pipeline instead, open loop (FCW off).",
     )
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--net", help="bundled network: motorway, onramp, ring, arterial")
@@ -44,17 +51,64 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="one FCW-on run per method (radar, infrared, centralized, federated driving the "
         "alert), to compare the crashes each avoids (two at a time)",
     )
+    p.add_argument(
+        "--world",
+        action="store_true",
+        help="run the 2-D object pipeline instead (radar and thermal camera seeing every object "
+        "ahead, trackers, association, every method's estimator per object, in-path selection; "
+        "world.* settings): open loop, FCW off (no driver reacts to a warning); prints per "
+        "method the alerts by class per 100 km and the nuisance and sensing-false alerts by "
+        "cause",
+    )
+    p.add_argument(
+        "--conditions",
+        nargs="+",
+        metavar="C",
+        help="with --world: weather and light, day, night, fog=METRES, rain=MM_PER_H joined by "
+        "'+', one SUMO run each (default: day)",
+    )
     add_sim_arguments(p, None)
     p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
     return p
 
 
-def run(args: argparse.Namespace) -> int:
+def run_world(args: argparse.Namespace, path, sumo_cfg) -> int:
+    """``acc-fusion sumo --world``: print the tables (and write them with ``--out``)."""
+    conditions = [parse_conditions(c) for c in args.conditions or ["day"]]
+    out = output_dir(args.out) if args.out else None
+    study = sumo_world_study(sumo_cfg, sim_config(args, runs=1), conditions, progress=True)
+    tables = {f"sumo_world_classes_{i}": t for i, t in enumerate(study.classes())}
+    tables["sumo_world_causes"] = study.causes()
+    print("\n\n".join(t.format() for t in tables.values()))
+    if out is not None:
+        stem = f"sumo_world_{path.stem}_seed{sumo_cfg.seed}"
+        for name, t in tables.items():
+            write_csv_atomic(out / f"{name.replace('sumo_world', stem)}.csv", t.columns, t.rows)
+        write_summary(
+            out,
+            f"{stem}.json",
+            {
+                "sumocfg": str(path),
+                "seed": sumo_cfg.seed,
+                **{label: {m: s.as_dict() for m, s in summaries.items()}
+                   for (_, label), summaries in study.results.items()},
+            },
+        )  # fmt: skip
+    return 0
 
+
+def run(args: argparse.Namespace) -> int:
+    """``acc-fusion sumo``: print the tables (and write them with ``--out``)."""
     path = resolve_sumocfg(args.net, args.sumocfg)
+    if args.conditions and not args.world:
+        raise ConfigError("--conditions is a setting of the 2-D pipeline; add --world")
+    if args.world and (args.gui or args.all_drives):
+        raise ConfigError("--world runs open loop and headless; drop --gui and --all-drives")
     sumo_cfg = traffic_config(
         args, path, seed=args.seed or 0, gui=args.gui, step_length=args.step_length
     )
+    if args.world:
+        return run_world(args, path, sumo_cfg)
     out = output_dir(args.out) if args.out else None
     sim = traffic_sim_config(args)
     drives = sim.methods if args.all_drives else ()

@@ -101,3 +101,11 @@ class Extent:
         if fitted > self.size or fitted < self.size - q:
             self.size = fitted
         return self.size
+
+    def fit_stages(self, active: np.ndarray, stages) -> int:
+        """:meth:`fit` the prefix to ``active`` and :func:`resize_all` ``stages`` when its
+        length changes; the length."""
+        size = self.size
+        if self.fit(active) != size:
+            resize_all(stages, self.size)
+        return self.size

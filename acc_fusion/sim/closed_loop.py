@@ -432,10 +432,7 @@ def simulate(
         ):
             frame, active, collided = source.frame(), source.active, source.collided
             new = getattr(source, "reassigned", None)
-            k = extent.size
-            if extent.fit(active) != k:
-                k = extent.size
-                resize_all(stages, k)
+            k = extent.fit_stages(active, stages)
             if k < n:
                 frame, active, collided = frame.head(k), active[:k], collided[:k]
                 new = None if new is None else new[:k]

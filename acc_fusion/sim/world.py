@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from tqdm.auto import tqdm
 
+from acc_fusion.core.slots import Extent, PairState, resize_all
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.tracking.association import TrackAssociator, fused_measurements
@@ -63,6 +64,8 @@ def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
     any other vehicle ``adjacent``; an id not in the frame (or ``-1``) ``ghost``.
     """
     n = frame.n_egos
+    if not frame.max_objects:  # no object ahead of any ego: whatever is selected is a ghost
+        return np.full(n, CAUSES.index("ghost"), dtype=np.int64)
     lead_id = frame.lead_frame().leader_id
     match = frame.valid & (frame.object_id == truth_id[:, None]) & (truth_id[:, None] >= 0)
     found = match.any(axis=1)
@@ -95,13 +98,19 @@ class WorldResult:
     steps: int
 
 
-class WorldPerception:
-    """The 2-D world's sensing and estimation over E egos (steps 2-5 of the module docstring)."""
+class WorldPerception(PairState):
+    """The 2-D world's sensing and estimation over E egos (steps 2-5 of the module docstring).
+
+    :meth:`forget` starts some egos afresh (a slot that a new vehicle took); :meth:`resize`
+    makes it perceive the first m egos only (:mod:`acc_fusion.core.slots`).
+    """
+
+    _PAIR_AXES = {"_input": 0}
 
     def __init__(self, config: SimConfig, n: int, seed: np.random.SeedSequence) -> None:
         s_sensors, s_ego, s_gyro = seed.spawn(3)
         world: WorldConfig = config.world
-        self.config, self.world, self.n = config, world, n
+        self.config, self.world, self.n, self._capacity = config, world, n, n
         self.sensors = sensors_2d(world.sensors, s_sensors)
         self.trackers = [Tracker(s.spec.name, world.tracker, n) for s in self.sensors]
         tracks = (world.tracker.max_tracks,) * 2
@@ -119,34 +128,60 @@ class WorldPerception:
             for m in config.methods
         }
         self.selectors = {m: InPathSelector(world.selection, n, self.slots) for m in config.methods}
-        self._input = np.zeros(pairs)
+        self._input = np.zeros((n, self.slots))  # each ego's acceleration, per object slot
         self._t_prev: float | None = None
 
-    def step(self, frame: ObjectFrame) -> tuple[dict[str, dict[str, np.ndarray]], np.ndarray]:
-        """Sense, track, fuse and select at ``frame``: per method the warning inputs of the
-        selected objects and their true ids; and the measured ego speed."""
+    def _resized(self, m: int) -> None:
+        self.n = m
+        resize_all([*self.trackers, self.associator, *self.selectors.values(), self.ego,
+                    self._read_ego], m)  # fmt: skip
+        resize_all(self.estimators.values(), m * self.slots)
+
+    def forget(self, egos: np.ndarray, wheel: np.ndarray) -> None:
+        """Start ``egos`` (a boolean mask ``(E,)``) afresh in every stage: their tracks, fused
+        objects, the estimators of their E·F pairs, the selectors' memory and the ego filter
+        (from the wheel speed ``wheel``)."""
+        for tracker in self.trackers:
+            tracker.forget(egos)
+        self.associator.forget(egos)
+        pairs = np.repeat(egos, self.slots)
+        for estimator in self.estimators.values():
+            estimator.forget(pairs)
+        for selector in self.selectors.values():
+            selector.forget(egos)
+        self.ego.reset(egos, wheel)
+        self._input[egos] = 0.0
+
+    def step(
+        self, frame: ObjectFrame, active: np.ndarray, reassigned: np.ndarray | None = None
+    ) -> tuple[dict[str, dict[str, np.ndarray]], np.ndarray]:
+        """Sense, track, fuse and select at ``frame`` (the egos in ``active`` are driven; those
+        ``reassigned`` start afresh): per method the warning inputs of the selected objects
+        and their true ids; and the measured ego speed."""
         dt = self.config.dt if self._t_prev is None else frame.t - self._t_prev
         self._t_prev = frame.t
         lead = frame.lead_frame()
         accel, wheel = self._read_ego(lead)
+        if reassigned is not None and reassigned.any():
+            self.forget(reassigned, wheel)
         v_ego, bias = self.ego.step(accel, wheel)
-        yaw = frame.ego_yaw_rate + self._gyro.normal(0.0, self.world.yaw_rate_std, self.n)
+        noise = self._gyro.normal(0.0, self.world.yaw_rate_std, self._capacity)[: self.n]
+        yaw = frame.ego_yaw_rate + noise
         detections = [s.detect(frame, self.world.conditions) for s in self.sensors]
         tracks = [
             tr.step(d, v_ego, yaw, dt) for tr, d in zip(self.trackers, detections, strict=True)
         ]
         fused = self.associator.step(*tracks)
         measurements, target = fused_measurements(fused, tracks, detections)
-        u = np.repeat(accel - bias, self.slots)
         out = {}
         for m, estimator in self.estimators.items():
-            est = estimator.step(measurements, target, self._input)
-            out[m] = self._select(m, est, fused, tracks, v_ego, yaw, frame.road_curvature)
-        self._input = u
+            est = estimator.step(measurements, target, self._input.reshape(-1))
+            out[m] = self._select(m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active)
+        self._input[:] = (accel - bias)[:, None]
         return out, v_ego
 
-    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature):
-        """The selected object of each ego under ``method`` and the warning's inputs."""
+    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active):
+        """The selected object of each active ego under ``method`` and the warning's inputs."""
         n, f = self.n, self.slots
         ok = (est.valid.reshape(n, f)) & fused.valid
         x = est.x.reshape(n, f, 3)
@@ -157,7 +192,7 @@ class WorldPerception:
         sel = self.selectors[method].step(
             ids, x[..., 0], fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
         )
-        has = sel >= 0
+        has = (sel >= 0) & active
         rows = np.arange(n)
         k = np.where(has, sel, 0)
         flat = rows * f + k
@@ -182,22 +217,42 @@ def simulate_world(
 ) -> WorldResult:
     """Run the 2-D pipeline (settings ``config.world``) on its scene (``config.runs`` runs,
     one ego each), or on ``source`` (anything with ``frame()`` giving an :class:`ObjectFrame`,
-    ``advance()``, ``active``, ``collided``, ``done`` and ``n_steps``), open loop."""
+    ``advance()``, ``active``, ``collided``, ``t``, ``done`` and ``n_steps``), open loop.
+
+    A source of slots (one with ``reassigned``, e.g.
+    :class:`acc_fusion.truth.sumo.objects.SumoWorld`) has its egos come and go: a slot that a
+    new vehicle took starts afresh in every stage, an inactive slot counts for nothing, and
+    every stage works on the prefix of slots that holds the vehicles
+    (:mod:`acc_fusion.core.slots`)."""
     cfg, world = config, config.world
     s_source, s_perception = np.random.SeedSequence(cfg.seed).spawn(2)
     if source is None:
         scene = SceneConfig(scene=world.scene, runs=cfg.runs, dt=cfg.dt)
         source = SceneSource(scene, np.random.default_rng(s_source))
+    slotted = hasattr(source, "reassigned")
     n = len(source.active)
     perception = WorldPerception(cfg, n, s_perception)
     oracle = WarningLogic(cfg.warning, n, cfg.dt)
     logic = {m: WarningLogic(cfg.warning, n, cfg.dt) for m in cfg.methods}
     metrics = {m: FCWMetrics(n, cfg.dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
+    stages = [perception, oracle, *logic.values(), *metrics.values()]
+    extent = Extent(n) if slotted else Extent(n, quantum=n)
     steps = 0
     for _ in tqdm(range(source.n_steps), disable=None if progress else True,
-                  desc=world.scene, unit="step", leave=False):  # fmt: skip
+                  desc=world.scene if not slotted else "traffic", unit="step",
+                  leave=False):  # fmt: skip
         frame, active, collided = source.frame(), source.active, source.collided
-        selected, _ = perception.step(frame)
+        new = source.reassigned if slotted else None
+        k = extent.fit_stages(active, stages)
+        if k < n:
+            frame, active, collided = frame.head(k), active[:k], collided[:k]
+            new = new[:k]
+        selected, _ = perception.step(frame, active, new)
+        if new is not None and new.any():
+            oracle.reset(new)
+            for m in cfg.methods:
+                logic[m].reset(new)
+                metrics[m].reset(new)
         lead = frame.lead_frame()
         level, ttc, relevant = judge(oracle, cfg.alert_classes, lead, active)
         for m in cfg.methods:
@@ -210,6 +265,7 @@ def simulate_world(
         steps += 1
         if source.done:
             break
+    resize_all(metrics.values(), n)
     for m in metrics.values():
         m.finish(source.t, source.collided)
     return WorldResult(

@@ -1,9 +1,13 @@
-"""The scripted 2-D scenes under each weather and light condition, every method: alerts by
-class and by cause (:func:`world_study`), the tables and the figure of ``acc-fusion world``."""
+"""The 2-D world under each weather and light condition, every method: alerts by class and by
+cause — of the scripted scenes (:func:`world_study`, the tables and the figure of ``acc-fusion
+world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --world``)."""
 
 from __future__ import annotations
 
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -14,7 +18,11 @@ from acc_fusion.metrics.stats import Rate
 from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import simulate_world
+from acc_fusion.studies.compare import class_table
 from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.sumo.config import SumoConfig
+from acc_fusion.truth.sumo.objects import SumoWorld
+from acc_fusion.truth.sumo.source import SumoSource
 
 #: The columns of :meth:`WorldStudy.scenes`.
 SCENE_COLUMNS = (
@@ -27,10 +35,12 @@ CAUSE_COLUMNS = ("conditions", "method", "class", *CAUSES, "per_100km")
 
 @dataclass
 class WorldStudy:
-    """Summaries by (scene, conditions label) and method."""
+    """Summaries by (scene, conditions label) and method; ``where`` names what the causes are
+    pooled over (the scripted scenes, or a SUMO network)."""
 
     config: SimConfig
     results: dict[tuple[str, str], dict[str, FCWSummary]]
+    where: str = "all scenes"
 
     def scenes(self) -> Table:
         """Per scene, condition and method: warnings by class, crash-relevant situations and
@@ -65,9 +75,9 @@ class WorldStudy:
         return out
 
     def causes(self) -> Table:
-        """Per condition and method, over all scenes: nuisance and sensing-false warnings by
-        cause, and each class's rate per 100 km (exact Poisson interval)."""
-        t = Table("Nuisance and sensing-false alerts by cause, all scenes", CAUSE_COLUMNS)
+        """Per condition and method, pooled over :attr:`where`: nuisance and sensing-false
+        warnings by cause, and each class's rate per 100 km (exact Poisson interval)."""
+        t = Table(f"Nuisance and sensing-false alerts by cause, {self.where}", CAUSE_COLUMNS)
         for (label, m), (counts, km) in self.pooled().items():
             for c in ("nuisance", "sensing_false"):
                 total = sum(counts[c].values())
@@ -80,6 +90,12 @@ class WorldStudy:
             "true in-path lead (the warning's target was right: the rule or its estimate was not)"
         )
         return t
+
+    def classes(self) -> list[Table]:
+        """Per (scene, condition): the alert classes of every method per 100 km
+        (:func:`~acc_fusion.studies.compare.class_table`)."""
+        return [class_table(f"Alerts by class, {scene}, {label} (judged from truth)", summaries)
+                for (scene, label), summaries in self.results.items()]  # fmt: skip
 
     def figure(self):
         """Stacked bars: the nuisance and sensing-false warnings of each method by cause, one
@@ -126,3 +142,36 @@ def world_study(
         result = simulate_world(replace(config, world=world))
         results[(scene, cond.label)] = result.summaries
     return WorldStudy(config, results)
+
+
+def _sumo_world_run(sumo_config: SumoConfig, config: SimConfig, progress: bool):
+    """One SUMO run of the 2-D pipeline (in a worker process: libsumo runs one simulation per
+    process), open loop, at SUMO's step; every method's summary."""
+    with SumoSource(sumo_config) as source:
+        run = replace(config, dt=source.dt)
+        return simulate_world(run, source=SumoWorld(source), progress=progress).summaries
+
+
+def sumo_world_study(
+    sumo_config: SumoConfig,
+    config: SimConfig,
+    conditions: list[Conditions],
+    progress: bool = False,
+) -> WorldStudy:
+    """The 2-D pipeline in SUMO traffic, open loop (no driver hears a warning), once per
+    condition on the same seed, each in its own process, two at a time; the progress bar is
+    the first run's."""
+    name = Path(sumo_config.sumocfg).stem
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
+        jobs = {
+            c.label: pool.submit(
+                _sumo_world_run,
+                sumo_config,
+                replace(config, world=replace(config.world, conditions=c)),
+                progress and i == 0,
+            )
+            for i, c in enumerate(conditions)
+        }
+        results = {(name, label): job.result() for label, job in jobs.items()}
+    return WorldStudy(config, results, where=f"SUMO {name}")

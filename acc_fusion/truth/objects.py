@@ -13,7 +13,7 @@ ego frame (``vx`` of the lead is the range-rate on a straight road).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from enum import IntEnum
 
 import numpy as np
@@ -146,6 +146,16 @@ class ObjectFrame:
             raise InputError("lead must name a valid object slot of its ego or be -1")
         object.__setattr__(self, "valid", valid)
         object.__setattr__(self, "lead", lead.astype(np.int64, copy=False))
+
+    def head(self, k: int) -> ObjectFrame:
+        """The frame of the first ``k`` egos (views of this frame's arrays, no checks)."""
+        if k == self.n_egos:
+            return self
+        out = object.__new__(ObjectFrame)
+        for f in fields(self):
+            value = getattr(self, f.name)
+            object.__setattr__(out, f.name, value if f.name == "t" else value[:k])
+        return out
 
     @property
     def n_egos(self) -> int:

@@ -119,6 +119,12 @@ class InPathSelector(PairState):
         self.in_path = np.zeros((n_egos, n_slots), dtype=bool)
         self.selected = np.full(n_egos, -1, dtype=np.int64)
 
+    def forget(self, egos: np.ndarray) -> None:
+        """Forget what was seen of the objects of ``egos`` (a boolean mask ``(E,)``), e.g. a
+        slot that a new vehicle took."""
+        self._ids[egos] = -1
+        self._moved[egos] = False
+
     def step(
         self,
         object_id: np.ndarray,

@@ -54,6 +54,7 @@ from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEAS_DIM
+from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse
 from acc_fusion.fusion.tracking.assignment import Scratch, gnn
@@ -96,14 +97,19 @@ class FusedObjects:
     lateral_cov: np.ndarray
 
 
-class TrackAssociator:
+class TrackAssociator(PairState):
     """Sticky GNN association of two sensors' confirmed tracks (module docstring).
+
+    :meth:`forget` drops the objects of some egos (a slot that got a new vehicle);
+    :meth:`resize` makes it associate for the first m egos only (:mod:`acc_fusion.core.slots`).
 
     Args:
         config: the :class:`AssociationConfig`.
         n_egos: number of egos E.
         max_tracks: the two trackers' ``max_tracks`` ``(T_a, T_b)``; ``F = T_a + T_b``.
     """
+
+    _PAIR_AXES = {"_valid": 0, "_object_id": 0, "_pair": 0}
 
     def __init__(self, config: AssociationConfig, n_egos: int, max_tracks: tuple[int, int]):
         if not isinstance(config, AssociationConfig):
@@ -122,6 +128,18 @@ class TrackAssociator:
         self._pair = np.full(shape + (2,), -1, np.int64)  # the objects' track ids
         self._next_id = getattr(self, "_next_id", np.zeros(1, np.int64))
         self._scratch = Scratch(*self.max_tracks)
+        self.__dict__.pop("_parked", None)
+
+    def forget(self, egos: np.ndarray) -> None:
+        """Drop every object of ``egos`` (a boolean mask ``(E,)`` or indices); their ids are
+        never reused, so a later object of the same tracks gets a new one."""
+        egos = pair_mask(egos, self.n_egos)
+        self._valid[egos] = False
+        self._object_id[egos] = -1
+        self._pair[egos] = -1
+
+    def _resized(self, m: int) -> None:
+        self.n_egos = m
 
     def step(self, a: Tracks, b: Tracks) -> FusedObjects:
         """Associate the two trackers' tracks of one frame (``a`` and ``b`` at the same time)."""

@@ -102,6 +102,7 @@ from typing import ClassVar
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_range
 from acc_fusion.fusion.tracking.assignment import Scratch
 from acc_fusion.fusion.tracking.kernels import DIM, track_step
@@ -223,8 +224,15 @@ class Tracks:
     object_id: np.ndarray
 
 
-class Tracker:
+#: The integer per-track arrays of a :class:`Tracker`, in the order of its ``_int`` rows.
+_INTS = ("track_id", "detection", "hits", "misses", "scans", "object_id")
+
+
+class Tracker(PairState):
     """A multi-target tracker of one sensor over E egos (the model: module docstring).
+
+    :meth:`forget` drops the tracks of some egos (a slot that got a new vehicle);
+    :meth:`resize` makes it track the first m egos only (:mod:`acc_fusion.core.slots`).
 
     Args:
         sensor: the sensor's name (the :class:`Detections` it takes must carry it).
@@ -244,6 +252,9 @@ class Tracker:
         >>> int(tracks.valid.sum()), bool(tracks.confirmed.any()), float(tracks.state[0, 0, 0])
         (1, False, 40.0)
     """
+
+    _PAIR_AXES = {"_x": 0, "_p": 0, "_valid": 0, "_confirmed": 0, "_int": 1, "_age": 0,
+                  "_coast": 0, "_speed": 0}  # fmt: skip
 
     def __init__(self, sensor: str, config: TrackerConfig, n_egos: int) -> None:
         if not isinstance(config, TrackerConfig):
@@ -265,14 +276,24 @@ class Tracker:
         e, t = self.n_egos, self.config.max_tracks
         self._x, self._p = np.zeros((e, t, DIM)), np.zeros((e, t, DIM, DIM))
         self._valid, self._confirmed = np.zeros((e, t), bool), np.zeros((e, t), bool)
-        self._ints = {
-            name: np.full((e, t), -1, np.int64)
-            for name in ("track_id", "detection", "hits", "misses", "scans", "object_id")
-        }
+        self._int = np.full((len(_INTS), e, t), -1, np.int64)
         self._age, self._coast = np.zeros((e, t)), np.zeros((e, t))
-        self._speed: np.ndarray | None = None
+        self._speed = np.full(e, np.nan)  # the last step's ego speed (NaN: none yet)
         self._next_id = getattr(self, "_next_id", np.zeros(1, np.int64))
         self._scratch = Scratch(t, 1)
+        self.__dict__.pop("_parked", None)
+
+    def forget(self, egos: np.ndarray) -> None:
+        """Drop every track of ``egos`` (a boolean mask ``(E,)`` or indices), e.g. a slot that
+        a new vehicle took; their ids are never reused."""
+        egos = pair_mask(egos, self.n_egos)
+        self._valid[egos] = self._confirmed[egos] = False
+        self._int[:, egos] = -1
+        self._x[egos], self._p[egos], self._age[egos], self._coast[egos] = 0.0, 0.0, 0.0, 0.0
+        self._speed[egos] = np.nan
+
+    def _resized(self, m: int) -> None:
+        self.n_egos = m
 
     def step(
         self, detections: Detections, ego_speed: np.ndarray, ego_yaw_rate: np.ndarray, dt: float
@@ -288,16 +309,15 @@ class Tracker:
         speed = check_array("ego_speed", ego_speed, (e,))
         yaw = check_array("ego_yaw_rate", ego_yaw_rate, (e,))
         dt = check_range("dt", dt, 0.0, 1e3)
-        speed0 = speed if self._speed is None else self._speed
+        speed0 = np.where(np.isnan(self._speed), speed, self._speed)
         self._speed = speed.copy()
         rows = det.rows()
         widest = int(np.diff(rows).max()) if det.count else 0
         if self._scratch.cost.shape[1] < widest + self.config.max_tracks:
             self._scratch = Scratch(self.config.max_tracks, 2 * widest)
-        i = self._ints
+        i = self._int
         track_step(
-            self._x, self._p, self._valid, self._confirmed, i["track_id"], i["detection"],
-            i["hits"], i["misses"], i["scans"], i["object_id"], self._age, self._coast, rows,
+            self._x, self._p, self._valid, self._confirmed, *i, self._age, self._coast, rows,
             det.range, det.azimuth, det.range_rate, det.range_std, det.azimuth_std,
             det.range_rate_std, det.object_id, bool(det.online), np.ascontiguousarray(speed0),
             np.ascontiguousarray(speed), np.ascontiguousarray(yaw), dt, self._params,
@@ -305,10 +325,9 @@ class Tracker:
         )  # fmt: skip
         return Tracks(
             t=float(det.t), sensor=self.sensor, valid=self._valid.copy(),
-            confirmed=self._confirmed.copy(), track_id=i["track_id"].copy(),
-            state=self._x.copy(), cov=self._p.copy(), detection=i["detection"].copy(),
-            hits=i["hits"].copy(), misses=i["misses"].copy(), age=self._age.copy(),
-            object_id=i["object_id"].copy(),
+            confirmed=self._confirmed.copy(), track_id=i[0].copy(), state=self._x.copy(),
+            cov=self._p.copy(), detection=i[1].copy(), hits=i[2].copy(), misses=i[3].copy(),
+            age=self._age.copy(), object_id=i[5].copy(),
         )  # fmt: skip
 
     def _check(self, detections: Detections) -> Detections:
