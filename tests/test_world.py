@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from acc_fusion.cli.world import parse_conditions
+from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.metrics.summary import CAUSES
 from acc_fusion.sim.closed_loop import SimConfig
@@ -101,3 +102,16 @@ def test_a_car_parked_before_a_curve_fools_the_camera_confirmed_fusion():
     s = _world("parked_curve", ("radar", "federated"))
     assert _false(s["federated"], "stationary") >= 5
     assert s["radar"].warnings == 0  # the radar alone ignores unconfirmed stationary objects
+
+
+def test_warnings_during_a_sensor_fault_are_counted_under_fault_for_the_methods_using_it():
+    cfg = SimConfig(runs=8, methods=("radar", "infrared", "federated"), seed=2)
+    bias = {"radar_faults": ({"kind": "bias", "start": 0.0, "magnitude": -15.0},)}
+    sensors = replace(cfg.world.sensors, radar_faults=from_mapping(
+        type(cfg.world.sensors), bias).radar_faults)  # fmt: skip
+    world = replace(cfg.world, scene="lead_brakes", sensors=sensors)
+    s = simulate_world(replace(cfg, world=world)).summaries
+    faulted = {m: sum(row["fault"] for row in s[m].by_cause.values()) for m in s}
+    assert faulted["radar"] == s["radar"].warnings > 0
+    assert faulted["federated"] == s["federated"].warnings
+    assert faulted["infrared"] == 0

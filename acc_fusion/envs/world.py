@@ -113,7 +113,7 @@ class _Episode:
 
     def _perceive(self) -> None:
         frame = self.source.frame()
-        selected, self.v_ego = self.perception.step(frame)
+        selected, self.v_ego = self.perception.step(frame, self.source.active)
         self.frame, self.truth_id = frame, selected[self.method]["truth_id"]
         self.lead = frame.lead_frame()
         self.level, self.ttc, self.relevant = judge(

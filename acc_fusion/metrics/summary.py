@@ -18,8 +18,9 @@ ALERT_CLASSES = ("crash_relevant", "nuisance", "sensing_false")
 #: What a warning was given on, judged from truth at its onset (the 2-D world's
 #: :mod:`acc_fusion.sim.world`): the true in-path lead; a stationary object (parked car,
 #: gantry, bridge, guardrail, sign); a vehicle in another lane; a vehicle changing lanes
-#: (cut-in or cut-out); a ghost or clutter return (no object).
-CAUSES = ("lead", "stationary", "adjacent", "cut_in_out", "ghost")
+#: (cut-in or cut-out); a ghost or clutter return (no object); any target while a fault of a
+#: sensor the method uses was active.
+CAUSES = ("lead", "stationary", "adjacent", "cut_in_out", "ghost", "fault")
 
 
 @dataclass(frozen=True)

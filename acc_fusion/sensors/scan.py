@@ -262,7 +262,8 @@ class Scanner:
                 z[2] += f.rate_magnitude
             elif f.kind == "spikes":
                 z += self._spikes(f, z.shape[1])
-        declared = s.noise_std(np.maximum(z[0], 0.0))
+        z[0] = np.maximum(z[0], 0.0)  # a sensor reports no negative range (noise, bias)
+        declared = s.noise_std(z[0])
         out = emit(frame.t, s.name, frame.n_egos, found + clutter, z, declared)
         kinds = {f.kind for f in active}
         if "dropout" in kinds:

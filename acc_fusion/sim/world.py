@@ -19,7 +19,7 @@ source) and F object slots each:
 6. truth — the ego's true in-path lead (:meth:`ObjectFrame.lead_frame`) — gives the oracle,
    the crash-relevant situations and the alert classes (:mod:`acc_fusion.metrics.events`);
    each warning's *cause* is what the selected object is in truth at its onset
-   (:func:`alert_cause`).
+   (:func:`alert_cause`), or ``fault`` while a fault of a sensor the method uses is active.
 
 The 1-D pipeline (:func:`acc_fusion.sim.closed_loop.simulate`) is the special case of one
 object, always in path, measured without association.
@@ -51,6 +51,8 @@ from acc_fusion.warning.selection import InPathSelector
 #: Lateral speed [m/s] above which a vehicle counts as changing lanes (a lane change moves
 #: sideways at about 0.5-1.5 m/s; assumption).
 LANE_CHANGE_SPEED = 0.5
+#: The sensors a single-sensor method uses (a fusion method uses them all).
+_SENSORS_OF = {"radar": ("radar",), "infrared": ("infrared",)}
 #: Methods whose estimates include the thermal camera, the classifying sensor.
 _CLASSIFYING = ("infrared", "centralized", "federated")
 
@@ -255,9 +257,12 @@ def simulate_world(
                 metrics[m].reset(new)
         lead = frame.lead_frame()
         level, ttc, relevant = judge(oracle, cfg.alert_classes, lead, active)
+        faulty = {s.spec.name: s.faulty(frame.t) for s in perception.sensors}
         for m in cfg.methods:
             system = logic[m].step(**selected[m]["inputs"])
             cause = alert_cause(frame, selected[m]["truth_id"])
+            if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
+                cause[:] = CAUSES.index("fault")
             metrics[m].update(
                 frame.t, system, level, ttc, frame.ego_speed, active, collided, relevant, cause
             )
