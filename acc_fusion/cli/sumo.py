@@ -68,7 +68,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "'+', one SUMO run each (default: day)",
     )
     add_sim_arguments(p, None)
-    p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
+    p.add_argument(
+        "--out", metavar="DIR", help="also write CSV, PNG and JSON here (--world: CSV and JSON)"
+    )
     return p
 
 
