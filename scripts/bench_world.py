@@ -14,7 +14,7 @@ other:
 * **objects**: the same source plus :meth:`acc_fusion.truth.sumo.objects.SumoObjects.frame`
   at every step (every vehicle, the roadside objects, the per-ego search and transform);
 * **pipeline**: :func:`acc_fusion.sim.world.simulate_world` on
-  :class:`~acc_fusion.truth.sumo.objects.SumoWorld` — the objects, the 2-D radar and thermal
+  :class:`~acc_fusion.truth.sumo.world.SumoWorld` — the objects, the 2-D radar and thermal
   camera, a tracker per sensor, the track-to-track association, all four methods' estimators
   on every associated object, in-path selection, warning, oracle and metrics — with the
   default config (``world.*``, day), over the occupied prefix of the slots.
@@ -132,8 +132,8 @@ def _pipeline(config, end: float, warmup: float) -> dict:
     end, with the time of every stage of :data:`STAGES`."""
     from acc_fusion.sim.closed_loop import SimConfig
     from acc_fusion.sim.world import simulate_world
-    from acc_fusion.truth.sumo.objects import SumoWorld
     from acc_fusion.truth.sumo.source import SumoSource
+    from acc_fusion.truth.sumo.world import SumoWorld
 
     class Until(SumoWorld):
         """The source, done at the end of the warm-up."""

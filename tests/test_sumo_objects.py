@@ -23,12 +23,11 @@ from acc_fusion.sim.world import LANE_CHANGE_SPEED  # noqa: E402
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig  # noqa: E402
 from acc_fusion.truth.sumo.nets import bundled_nets  # noqa: E402
+from acc_fusion.truth.sumo.object_kernels import _path_offset  # noqa: E402
 from acc_fusion.truth.sumo.objects import (  # noqa: E402
     LANE_CHANGE_DURATION,
     ObjectFieldConfig,
     SumoObjects,
-    SumoWorld,
-    _path_offset,
 )
 from acc_fusion.truth.sumo.roadside import (  # noqa: E402
     ROADSIDE_ID_BASE,
@@ -38,6 +37,7 @@ from acc_fusion.truth.sumo.roadside import (  # noqa: E402
     place_roadside,
 )
 from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
+from acc_fusion.truth.sumo.world import SumoWorld  # noqa: E402
 
 #: Straight-road tolerance of positions [m]: x and the gap are differences of the same SUMO
 #: coordinates (below 5 km, rounding about 1e-12 m); 1 µm leaves room for float sums.

@@ -222,7 +222,7 @@ def simulate_world(
     ``advance()``, ``active``, ``collided``, ``t``, ``done`` and ``n_steps``), open loop.
 
     A source of slots (one with ``reassigned``, e.g.
-    :class:`acc_fusion.truth.sumo.objects.SumoWorld`) has its egos come and go: a slot that a
+    :class:`acc_fusion.truth.sumo.world.SumoWorld`) has its egos come and go: a slot that a
     new vehicle took starts afresh in every stage, an inactive slot counts for nothing, and
     every stage works on the prefix of slots that holds the vehicles
     (:mod:`acc_fusion.core.slots`)."""

@@ -21,8 +21,8 @@ from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.sumo.config import SumoConfig
-from acc_fusion.truth.sumo.objects import SumoWorld
 from acc_fusion.truth.sumo.source import SumoSource
+from acc_fusion.truth.sumo.world import SumoWorld
 
 #: The columns of :meth:`WorldStudy.scenes`.
 SCENE_COLUMNS = (

@@ -1,0 +1,65 @@
+"""A SUMO source as the truth source of the 2-D world (:class:`SumoWorld`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acc_fusion.truth.objects import ObjectFrame
+from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects
+from acc_fusion.truth.sumo.source import SumoSource
+
+
+class SumoWorld:
+    """A SUMO source as the truth source of :func:`acc_fusion.sim.world.simulate_world`: its
+    slots are the egos, their objects :class:`SumoObjects`' frame; a slot that a new vehicle
+    took (``reassigned``) starts afresh in every stage of the pipeline.
+
+    Args:
+        source: an open, in-process :class:`~acc_fusion.truth.sumo.source.SumoSource`.
+        config: the :class:`ObjectFieldConfig`.
+
+    Attributes:
+        source: the source; objects: its :class:`SumoObjects`.
+    """
+
+    def __init__(self, source: SumoSource, config: ObjectFieldConfig | None = None) -> None:
+        self.objects = SumoObjects(source, config)
+        self.source = source
+
+    def frame(self) -> ObjectFrame:
+        """The object frame of the current step."""
+        return self.objects.frame()
+
+    def advance(self) -> None:
+        """Run one SUMO step, open loop (no brake requests)."""
+        self.source.advance()
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(E,)`` slots holding an equipped vehicle now."""
+        return self.source.active
+
+    @property
+    def collided(self) -> np.ndarray:
+        """``(E,)`` slots whose vehicle ran into another."""
+        return self.source.collided
+
+    @property
+    def reassigned(self) -> np.ndarray:
+        """``(E,)`` slots that got a new vehicle at this step."""
+        return self.source.reassigned
+
+    @property
+    def t(self) -> float:
+        """Simulation time [s]."""
+        return self.source.t
+
+    @property
+    def done(self) -> bool:
+        """SUMO reached its end (or was closed)."""
+        return self.source.done
+
+    @property
+    def n_steps(self) -> int:
+        """Steps from the begin to the end time."""
+        return self.source.n_steps
