@@ -38,7 +38,7 @@ local filter's own innovation with its information share undone).  Two tests use
   NIS alone mixes the sensor's error with the motion model's, which every sensor shares: on
   SUMO's A10KW (0.5 s steps, a lead acceleration that changes by steps) the mean NIS of
   healthy sensors is 8.6 (radar) and 5.4 (infrared) instead of 2, the windows failed, the
-  radar was isolated in 4.6 % of the pair-steps with a leader and the infrared in 2 %, and
+  radar was isolated in 4.6 % of the pair-steps with a leader and the infrared in 1.7 %, and
   the federated filter raised more sensing-false alerts than the centralized one.  The cross
   NIS is :math:`\chi^2_m` for healthy sensors whatever the model predicted, and a fault
   shows in both (it disagrees with the prediction *and* with the other sensor), so the
