@@ -255,6 +255,8 @@ def main() -> None:
     add_traffic_arguments(p)
     add_sim_arguments(p, None)
     args = p.parse_args()
+    if args.distraction:
+        p.error("--distraction: the breakdown runs open loop, every driver attentive")
     args.distraction = 0.0
     path = resolve_sumocfg(args.net, args.sumocfg)
     sumo_cfg = traffic_config(args, path, seed=args.seed or 0)
