@@ -125,20 +125,11 @@ def test_lose_kernel_matches_its_numpy_form():
     assert np.array_equal(target, target_id)
 
 
-@pytest.mark.parametrize("manoeuvre, most", [(True, 0), (False, 200)])
-def test_a_braking_lead_is_a_manoeuvre_not_a_radar_fault(manoeuvre, most):
-    """nhtsa_lvd with healthy sensors: the lead's 0.3 g braking onset (one step) makes the
-    radar's innovations fail the window test; taken for a manoeuvre first, it isolates no
-    sensor and the federated gap stays as accurate as the centralized filter's."""
-    from acc_fusion.fusion.fdi import FDIConfig
-    from acc_fusion.sim.closed_loop import SimConfig, simulate
+def healthy_isolations(cfg) -> dict:
+    """Run ``cfg`` (centralized and federated, healthy sensors): the federated filter's
+    isolated pair-sensor-steps with a leader and both filters' summed squared gap errors."""
+    from acc_fusion.sim.closed_loop import simulate
 
-    cfg = SimConfig(
-        scenario="nhtsa_lvd",
-        runs=20,
-        methods=("centralized", "federated"),
-        fusion=FusionConfig(fdi=FDIConfig(manoeuvre=manoeuvre)),
-    )
     seen = {"isolated": 0, "fed": 0.0, "cen": 0.0}
 
     def count(view):
@@ -149,11 +140,29 @@ def test_a_braking_lead_is_a_manoeuvre_not_a_radar_fault(manoeuvre, most):
         seen["cen"] += float(((cen.gap - f.gap)[ok] ** 2).sum())
 
     simulate(cfg, on_step=count)
-    if manoeuvre:
-        assert seen["isolated"] == most
-        assert seen["fed"] <= 1.05 * seen["cen"]
-    else:  # the window test alone reads the onset as a radar fault
-        assert seen["isolated"] > most and seen["fed"] > 2.0 * seen["cen"]
+    return seen
+
+
+@pytest.mark.parametrize("manoeuvre", [True, False])
+def test_a_braking_lead_is_a_manoeuvre_not_a_radar_fault(manoeuvre):
+    """nhtsa_lvd with healthy sensors: the lead's 0.3 g braking onset (one step) makes the
+    radar's innovations fail against the prediction, but not against the camera's reports, so
+    the window test isolates no sensor, with or without "manoeuvre first", and the federated
+    gap stays as accurate as the centralized filter's.  Before the window took the smaller of
+    the two (the NIS alone), the window test without "manoeuvre first" isolated the radar
+    (more than 200 pair-sensor-steps in 20 runs, gap error over 2x the centralized one)."""
+    from acc_fusion.fusion.fdi import FDIConfig
+    from acc_fusion.sim.closed_loop import SimConfig
+
+    cfg = SimConfig(
+        scenario="nhtsa_lvd",
+        runs=20,
+        methods=("centralized", "federated"),
+        fusion=FusionConfig(fdi=FDIConfig(manoeuvre=manoeuvre)),
+    )
+    seen = healthy_isolations(cfg)
+    assert seen["isolated"] == 0
+    assert seen["fed"] <= 1.05 * seen["cen"]
 
 
 def test_a_report_beyond_the_gate_is_used_when_another_sensor_confirms_it():
@@ -172,3 +181,39 @@ def test_a_report_beyond_the_gate_is_used_when_another_sensor_confirms_it():
     assert accepted[:2, 1].all()
     # The confirmed report is no evidence of a fault: it stays out of the window.
     assert fdi.arrays()[2][0, 0] == 0 and fdi.arrays()[2][1, 0] == 1
+
+
+def test_a_report_beyond_the_gate_is_used_when_the_other_sensors_last_report_confirms_it():
+    """The radar reports alone for three steps (the camera runs at a lower rate): its report
+    beyond the gate is checked against the camera's report of three steps before, carried
+    forward at the camera's range-rate (1.5 m at -10 m/s), and used when they agree."""
+    from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
+
+    fdi = WindowedChiSquare(2, 2, FDIConfig(), dt=0.05)
+    r = np.tile(np.diag([0.0625, 0.0144]), (2, 2, 1, 1))
+    r[1] = np.diag([0.01, 0.01])
+    z = np.zeros((2, 2, 2))
+    z[:, :] = [30.0, -10.0]
+    fdi.step(np.ones((2, 2)), np.ones((2, 2), dtype=bool), z, r)
+    radar_only = np.array([[True, False], [True, False]])
+    nis = np.array([[40.0, np.nan], [40.0, np.nan]])
+    for k in (1, 2, 3):
+        z[0, 0] = [30.0 - 0.5 * k, -10.0]  # pair 0: the lead where the camera put it
+        z[0, 1] = [30.0 - 0.5 * k + 5.0, -10.0]  # pair 1: a radar spike of 5 m
+        accepted, _, _ = fdi.step(nis, radar_only, z, r)
+    assert accepted[0, 0] and not accepted[1, 0]
+
+
+def test_a_lead_braking_to_a_stop_keeps_both_sensors_in():
+    """ccrb with healthy sensors (the lead brakes at 6 m/s² and stops): the radar's reports
+    beyond the gate at the braking onset and at the stop agree with the camera's latest
+    report, so they are used and not counted against the radar; the federated gap is as
+    accurate as the centralized filter's.  Checking only against a camera report of the same
+    step, with the NIS alone in the window, the radar was isolated (133 pair-sensor-steps in
+    50 runs, gap error 1.09x the centralized filter's)."""
+    from acc_fusion.sim.closed_loop import SimConfig
+
+    cfg = SimConfig(scenario="ccrb", runs=50, methods=("centralized", "federated"))
+    seen = healthy_isolations(cfg)
+    assert seen["isolated"] == 0
+    assert seen["fed"] <= 1.01 * seen["cen"]

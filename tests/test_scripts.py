@@ -34,6 +34,7 @@ def assert_png(path: Path) -> None:
         "reproduce_kong2011.py",
         "reproduce_cn103196450a.py",
         "fault_tolerance.py",
+        "federated_breakdown.py",
         "steady_state_vs_full.py",
         "bench_filters.py",
     ],
@@ -119,3 +120,9 @@ def test_bench_sumo_prints_the_floor_and_the_overhead_ratio():
     assert re.fullmatch(r"source_ratio=[0-9.]+", lines[-3])
     assert re.fullmatch(r"floor_ratio=[0-9.]+", lines[-2])
     assert re.fullmatch(r"overhead_ratio=[0-9.]+", lines[-1])
+
+
+def test_federated_breakdown_attributes_every_seen_alert():
+    out = run("federated_breakdown.py", "--net", "motorway", "--end", "30").stdout
+    assert "federated only:" in out and "centralized only:" in out
+    assert out.count("the run's own metrics") == 2
