@@ -152,8 +152,8 @@ def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def predict_one(x, p, f, q, scale, b, u, xt, fp):  # pragma: no cover - compiled
     """:func:`predict` of one filter ``x (n,)``, ``p (n, n)`` with process-noise scale
-    ``scale`` and input ``u`` (``xt (n,)``, ``fp (n, n)``: scratch)."""
-    n = STATE_DIM
+    ``scale`` and input ``u`` (``xt (n,)``, ``fp (n, n)``: scratch); any state size ``n``."""
+    n = x.shape[0]
     for i in range(n):
         s = 0.0
         for j in range(n):

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.units import TIME_TOL
-from acc_fusion.filters.kalman import _inverse
+from acc_fusion.filters.kalman import _inverse, predict_one
 from acc_fusion.fusion.tracking.assignment import gnn
 
 #: State dimension [x, vx, y, vy] and the indices of the position components.
@@ -68,29 +68,6 @@ def ego_transform(dt, speed0, speed1, yaw_rate, f):  # pragma: no cover - compil
     c[2] = -(-sn * dx + cs * dy)
     c[3] = -sn * speed0
     return f @ t, f @ c
-
-
-@njit(cache=True, inline="always")
-def _propagate(x, p, a, b, q, xt, ap):  # pragma: no cover - compiled
-    """``x = A x + b``, ``P = A P A^T + Q`` in place (``xt``, ``ap``: scratch)."""
-    for i in range(DIM):
-        s = b[i]
-        for j in range(DIM):
-            s += a[i, j] * x[j]
-        xt[i] = s
-    for i in range(DIM):
-        x[i] = xt[i]
-        for j in range(DIM):
-            s = 0.0
-            for m in range(DIM):
-                s += a[i, m] * p[m, j]
-            ap[i, j] = s
-    for i in range(DIM):
-        for j in range(DIM):
-            s = q[i, j]
-            for m in range(DIM):
-                s += ap[i, m] * a[j, m]
-            p[i, j] = s
 
 
 @njit(cache=True, inline="always")
@@ -167,7 +144,7 @@ def track_step(
         for t in range(n_slots):
             detection[e, t] = -1
             if valid[e, t]:
-                _propagate(x[e, t], p[e, t], a, b, qm, xt, ap)
+                predict_one(x[e, t], p[e, t], a, qm, 1.0, b, 1.0, xt, ap)
                 age[e, t] += dt
                 coast[e, t] += dt
                 slots[n_t] = t
