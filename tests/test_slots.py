@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.slots import Extent
+from acc_fusion.core.slots import Extent, PairPool
 from acc_fusion.metrics.events import COUNTS, FCWMetrics
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
 
@@ -64,3 +64,24 @@ def test_pair_mask_takes_a_mask_indices_or_none():
         pair_mask([4], 4)
     with pytest.raises(IndexError):
         pair_mask(np.ones(3, dtype=bool), 4)
+
+
+def test_pair_pool_keeps_the_used_pairs_a_dense_prefix():
+    pool = PairPool(n_keys=10, n_pairs=4)
+    live = np.zeros(10, dtype=bool)
+    live[[7, 2, 9]] = True
+    assert not pool.update(live).any()
+    np.testing.assert_array_equal(pool.key_of, [2, 7, 9, -1])  # lowest free pair first
+    live[7] = False
+    live[5] = True
+    freed = pool.update(live)
+    np.testing.assert_array_equal(freed, [False, True, False, False])  # key 7's pair, retaken
+    np.testing.assert_array_equal(pool.key_of, [2, 5, 9, -1])
+    assert pool.pair_of[5] == 1 and pool.pair_of[7] == -1
+    np.testing.assert_array_equal(pool.update(live[:6]), [False, False, True, False])  # 9 left
+    np.testing.assert_array_equal(pool.used, [True, True, False, False])
+    keys = np.zeros(10, dtype=bool)
+    keys[2] = True
+    np.testing.assert_array_equal(pool.release(keys), [True, False, False, False])
+    with pytest.raises(ConfigError, match="the pool of 4 pairs is full"):
+        pool.update(np.ones(10, dtype=bool))

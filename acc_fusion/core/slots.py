@@ -18,6 +18,7 @@ hold the two runs equal).
 
 from __future__ import annotations
 
+import hashlib
 from typing import ClassVar
 
 import numpy as np
@@ -70,6 +71,13 @@ def pair_mask(pairs, n: int) -> np.ndarray:
     return mask
 
 
+def unit_key(name: str) -> int:
+    """A stable 63-bit integer key of a unit's name (e.g. a SUMO vehicle id): the same in
+    every process and run, unlike ``hash`` (BLAKE2b of the UTF-8 name)."""
+    digest = hashlib.blake2b(str(name).encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little") >> 1
+
+
 def resize_all(stages, m: int) -> None:
     """:meth:`PairState.resize` every stage of ``stages`` to ``m`` pairs."""
     for stage in stages:
@@ -109,3 +117,50 @@ class Extent:
         if self.fit(active) != size:
             resize_all(stages, self.size)
         return self.size
+
+
+class PairPool:
+    """Dense pair indices for the live keys of a sparse key space.
+
+    The 2-D world has E·F object slots (F per ego) of which a few are used at a time; its
+    estimators need one pair per *used* slot only.  The pool gives each live key (a slot) a
+    pair index for as long as it stays live, the lowest free index first, so the pairs in use
+    stay a short prefix that an :class:`Extent` can cut the estimators to.
+
+    Attributes:
+        pair_of: ``(K,)`` each key's pair, -1 for none.
+        key_of: ``(P,)`` each pair's key, -1 for a free pair.
+    """
+
+    def __init__(self, n_keys: int, n_pairs: int) -> None:
+        self.pair_of = np.full(int(n_keys), -1, np.int64)
+        self.key_of = np.full(int(n_pairs), -1, np.int64)
+
+    @property
+    def used(self) -> np.ndarray:
+        """``(P,)`` the pairs that hold a key."""
+        return self.key_of >= 0
+
+    def release(self, keys: np.ndarray) -> np.ndarray:
+        """Free the pairs of ``keys`` (a boolean mask ``(K,)``); the freed pairs ``(P,)``."""
+        pairs = self.pair_of[keys]
+        pairs = pairs[pairs >= 0]
+        self.key_of[pairs] = -1
+        self.pair_of[keys] = -1
+        return pair_mask(pairs, self.key_of.size)
+
+    def update(self, live: np.ndarray) -> np.ndarray:
+        """Hold exactly the keys in ``live`` (a boolean mask over the first ``len(live)``
+        keys; the keys beyond it are not live): free the pairs of the keys that left, give
+        each new key the lowest free pair.  Returns the freed pairs ``(P,)`` (a pair freed
+        and taken again in this call is among them)."""
+        alive = np.zeros(self.pair_of.size, dtype=bool)
+        alive[: live.size] = live
+        if alive.sum() > self.key_of.size:
+            raise ConfigError(f"the pool of {self.key_of.size} pairs is full")
+        freed = self.release(~alive & (self.pair_of >= 0))
+        new = np.flatnonzero(alive & (self.pair_of < 0))
+        free = np.flatnonzero(self.key_of < 0)[: new.size]
+        self.key_of[free] = new
+        self.pair_of[new] = free
+        return freed

@@ -66,7 +66,7 @@ class _SeenPerception(WorldPerception):
     :class:`~acc_fusion.fusion.tracking.tracker.Tracks`."""
 
     def _select(self, method, est, fused, tracks, *rest):
-        self.seen = (est, fused, tracks)
+        self.seen = (self.per_slot(est), fused, tracks)
         return super()._select(method, est, fused, tracks, *rest)
 
 

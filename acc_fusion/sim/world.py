@@ -12,8 +12,10 @@ source) and F object slots each:
    associates, confirms and deletes tracks; the tracks of the two sensors are associated into
    objects (:class:`acc_fusion.fusion.tracking.association.TrackAssociator`);
 4. every method's estimator — each sensor alone, centralized, federated with its FDI, exactly
-   the 1-D pipeline's — runs on the E·F associated objects as E·F pairs, fed with the
-   detections each sensor's track took at this step;
+   the 1-D pipeline's — runs on the associated objects, one pair per used object slot (a
+   :class:`~acc_fusion.core.slots.PairPool` keeps the pairs of the slots in use a dense
+   prefix, so the estimators cost in proportion to the objects, not to the E·F slots), fed
+   with the detections each sensor's track took at this step;
 5. the in-path selector (:mod:`acc_fusion.warning.selection`) picks each ego's object from the
    method's estimates, and the warning logic judges it;
 6. truth — the ego's true in-path lead (:meth:`ObjectFrame.lead_frame`) — gives the oracle,
@@ -32,8 +34,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from tqdm.auto import tqdm
 
-from acc_fusion.core.slots import Extent, PairState, resize_all
+from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
+from acc_fusion.fusion.base import Estimate
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.tracking.association import TrackAssociator, fused_measurements
 from acc_fusion.fusion.tracking.tracker import Tracker
@@ -55,6 +58,9 @@ LANE_CHANGE_SPEED = 0.5
 _SENSORS_OF = {"radar": ("radar",), "infrared": ("infrared",)}
 #: Methods whose estimates include the thermal camera, the classifying sensor.
 _CLASSIFYING = ("infrared", "centralized", "federated")
+#: Pairs by which the estimators' prefix of the pair pool grows or shrinks (each resize
+#: copies every estimator's state once).
+POOL_QUANTUM = 1024
 
 
 def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
@@ -129,30 +135,52 @@ class WorldPerception(PairState):
             m: make_estimator(replace(fusion, method=m), SENSOR_NAMES, pairs, specs)
             for m in config.methods
         }
+        self.pool = PairPool(pairs, pairs)  # object slot e·F + f → the estimators' pair
+        self._pool_extent = Extent(pairs, quantum=POOL_QUANTUM)
         self.selectors = {m: InPathSelector(world.selection, n, self.slots) for m in config.methods}
-        self._input = np.zeros((n, self.slots))  # each ego's acceleration, per object slot
+        self._input = np.zeros(n)  # each ego's acceleration over the coming step
         self._t_prev: float | None = None
 
     def _resized(self, m: int) -> None:
         self.n = m
         resize_all([*self.trackers, self.associator, *self.selectors.values(), self.ego,
                     self._read_ego], m)  # fmt: skip
-        resize_all(self.estimators.values(), m * self.slots)
+
+    def _free(self, freed: np.ndarray) -> None:
+        """Forget the estimators' pairs ``freed`` (a mask over the pool; all inside the
+        estimators' prefix, since they were in use at the last step)."""
+        if freed.any():
+            pairs = freed[: self._pool_extent.size]
+            for estimator in self.estimators.values():
+                estimator.forget(pairs)
 
     def forget(self, egos: np.ndarray, wheel: np.ndarray) -> None:
         """Start ``egos`` (a boolean mask ``(E,)``) afresh in every stage: their tracks, fused
-        objects, the estimators of their E·F pairs, the selectors' memory and the ego filter
-        (from the wheel speed ``wheel``)."""
+        objects, the estimators' pairs of their objects, the selectors' memory and the ego
+        filter (from the wheel speed ``wheel``)."""
         for tracker in self.trackers:
             tracker.forget(egos)
         self.associator.forget(egos)
-        pairs = np.repeat(egos, self.slots)
-        for estimator in self.estimators.values():
-            estimator.forget(pairs)
+        keys = np.zeros(self.pool.pair_of.size, dtype=bool)
+        keys[: self.n * self.slots] = np.repeat(egos, self.slots)
+        self._free(self.pool.release(keys))
         for selector in self.selectors.values():
             selector.forget(egos)
         self.ego.reset(egos, wheel)
         self._input[egos] = 0.0
+
+    def per_slot(self, est: Estimate) -> Estimate:
+        """``est`` (over the pool's pairs) laid out over the E·F object slots, ego-major; a
+        slot without an object is not ``valid``, its ``x`` and ``p`` zero, its NIS NaN."""
+        pair = self.pool.pair_of[: self.n * self.slots]
+        has = pair >= 0
+        k = np.maximum(pair, 0)
+
+        def spread(a, fill):
+            return np.where(has.reshape((-1,) + (1,) * (a.ndim - 1)), a[k], fill)
+
+        return Estimate(est.t, spread(est.x, 0.0), spread(est.p, 0.0), spread(est.valid, False),
+                        spread(est.nis, np.nan), spread(est.isolated, False))  # fmt: skip
 
     def step(
         self, frame: ObjectFrame, active: np.ndarray, reassigned: np.ndarray | None = None
@@ -174,30 +202,37 @@ class WorldPerception(PairState):
             tr.step(d, v_ego, yaw, dt) for tr, d in zip(self.trackers, detections, strict=True)
         ]
         fused = self.associator.step(*tracks)
-        measurements, target = fused_measurements(fused, tracks, detections)
+        freed = self.pool.update(fused.valid.reshape(-1))
+        p = self._pool_extent.fit_stages(self.pool.used, self.estimators.values())
+        self._free(freed)
+        slots = self.pool.key_of[:p]
+        measurements, target = fused_measurements(fused, tracks, detections, slots)
+        u = self._input[np.maximum(slots, 0) // self.slots]
         out = {}
         for m, estimator in self.estimators.items():
-            est = estimator.step(measurements, target, self._input.reshape(-1))
+            est = estimator.step(measurements, target, u)
             out[m] = self._select(m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active)
-        self._input[:] = (accel - bias)[:, None]
+        self._input[:] = accel - bias
         return out, v_ego
 
     def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active):
-        """The selected object of each active ego under ``method`` and the warning's inputs."""
+        """The selected object of each active ego under ``method`` and the warning's inputs
+        (``est`` over the pool's pairs)."""
         n, f = self.n, self.slots
-        ok = (est.valid.reshape(n, f)) & fused.valid
-        x = est.x.reshape(n, f, 3)
+        pair = self.pool.pair_of[: n * f].reshape(n, f)
+        pair_k = np.maximum(pair, 0)
+        ok = (pair >= 0) & est.valid[pair_k] & fused.valid
         ids = np.where(ok, fused.object_id, -1)
         camera = fused.track[..., 1] >= 0
         confirmed = camera if method in _CLASSIFYING else np.zeros_like(camera)
-        ground = v_ego[:, None] + x[..., 1]
+        ground = v_ego[:, None] + est.x[pair_k, 1]
         sel = self.selectors[method].step(
-            ids, x[..., 0], fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
+            ids, est.x[pair_k, 0], fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
         )
         has = (sel >= 0) & active
         rows = np.arange(n)
         k = np.where(has, sel, 0)
-        flat = rows * f + k
+        flat = pair_k[rows, k]
         gap, v_rel, a_lead, gap_std = np.empty((4, n))
         _track_inputs(has, est.x[flat], est.p[flat], gap, v_rel, a_lead, gap_std)
         radar_track, camera_track = fused.track[rows, k, 0], fused.track[rows, k, 1]

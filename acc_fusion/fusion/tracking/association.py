@@ -40,7 +40,8 @@ Bridge to the 1-D federated filter
     (the converted covariance's x-variance and the declared range-rate variance), and the
     fused object's id as ``target_id`` (-1 in an empty slot).  So the federated filter, its
     fault detection included, fuses every associated object unchanged, and re-initialises a
-    slot's filters when it gets a new object id.
+    slot's filters when it gets a new object id.  Given the slot of each pair (the used slots
+    only, :class:`acc_fusion.core.slots.PairPool`), it makes those pairs alone.
 """
 
 from __future__ import annotations
@@ -320,23 +321,33 @@ def _fuse_lateral(slots, x_a, p_a, x_b, p_b, out, out_cov, vec, s, si, work):  #
 
 
 def fused_measurements(
-    fused: FusedObjects, tracks: Sequence[Tracks], detections: Sequence[Detections]
+    fused: FusedObjects,
+    tracks: Sequence[Tracks],
+    detections: Sequence[Detections],
+    slots: np.ndarray | None = None,
 ) -> tuple[list[Measurement], np.ndarray]:
-    """The fused objects as the N = E·F pairs of the 1-D federated filter (module docstring):
-    one :class:`~acc_fusion.sensors.sensor.Measurement` per sensor, in the order of
+    """The fused objects as the pairs of the 1-D federated filter (module docstring): one
+    :class:`~acc_fusion.sensors.sensor.Measurement` per sensor, in the order of
     ``fused.sensors``, and ``target_id (N,)``, for ``Estimator.step(measurements, target_id)``.
 
-    ``tracks`` and ``detections`` are the two sensors' of this frame, in the same order.
+    ``tracks`` and ``detections`` are the two sensors' of this frame, in the same order.  The
+    pairs are the E·F fused slots (ego-major), or, with ``slots (N,)``, the flat slot
+    ``e·F + f`` of each pair (-1: a pair without an object, which gets no measurement).
     """
     e, f = fused.valid.shape
-    n = e * f
-    ego = np.repeat(np.arange(e), f)
-    target = np.where(fused.valid, fused.object_id, -1).reshape(n)
+    if slots is None:
+        slots = np.arange(e * f)
+    n = slots.size
+    has_slot = slots >= 0
+    flat = np.maximum(slots, 0)
+    ego = flat // f
+    target = np.where(has_slot & fused.valid.reshape(-1)[flat], fused.object_id.reshape(-1)[flat],
+                      -1)  # fmt: skip
     out = []
     for s, (trk, det) in enumerate(zip(tracks, detections, strict=True)):
         if trk.sensor != fused.sensors[s] or det.sensor != fused.sensors[s]:
             raise InputError(f"tracks and detections must be given in the order {fused.sensors}")
-        slot = fused.track[..., s].reshape(n)
+        slot = np.where(has_slot, fused.track[..., s].reshape(-1)[flat], -1)
         k = np.full(n, -1, np.int64)
         has = slot >= 0
         k[has] = trk.detection[ego[has], slot[has]]
