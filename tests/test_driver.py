@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.slots import unit_key
 from acc_fusion.core.units import G
 from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import TruthFrame
@@ -38,6 +39,31 @@ def test_same_seed_same_drivers_and_documented_distributions():
     assert np.mean(a.deceleration) == pytest.approx(0.5 * G, rel=0.01)
     assert a.reaction_time.min() >= 0.5 and a.reaction_time.max() <= 3.0
     assert a.deceleration.min() >= 0.3 * G and a.deceleration.max() <= 0.9 * G
+
+
+def test_an_assigned_driver_is_his_units_whatever_his_slot():
+    from acc_fusion.truth.distraction import DistractionConfig
+
+    config = DriverConfig(distraction=DistractionConfig(rate=600.0))
+    a, b = Driver(4, config, seed=3), Driver(4, config, seed=3)
+    a.assign(np.array([True, False, True, False]), np.array([11, 0, 22, 0]))
+    b.assign(np.array([False, True, False, True]), np.array([0, 22, 0, 11]))
+    np.testing.assert_array_equal(a.reaction_time[[0, 2]], b.reaction_time[[3, 1]])
+    np.testing.assert_array_equal(a.deceleration[[0, 2]], b.deceleration[[3, 1]])
+    assert a.reaction_time[0] != a.reaction_time[2]
+    for t in np.arange(0.0, 60.0, DT):  # the same episodes in either slot
+        a.step(np.zeros(4), frame(t, 4, range_rate=1.0))
+        b.step(np.zeros(4), frame(t, 4, range_rate=1.0))
+        np.testing.assert_array_equal(a.eyes_off[[0, 2]], b.eyes_off[[3, 1]])
+    assert a._episodes[[0, 2]].min() > 3
+    named = Driver(4, config, seed=3)
+    named.new_vehicles(np.array([False, False, True, False]), [None, None, "car.7", None])
+    c = Driver(4, config, seed=3)
+    c.assign(np.array([False, False, True, False]), np.array([0, 0, unit_key("car.7"), 0]))
+    assert named.reaction_time[2] == c.reaction_time[2] != a.reaction_time[2]
+    seed4 = Driver(4, config, seed=4)
+    seed4.assign(np.array([True, False, False, False]), np.array([11, 0, 0, 0]))
+    assert seed4.reaction_time[0] != a.reaction_time[0]
 
 
 def test_reaction_is_exact_to_the_step():

@@ -248,6 +248,27 @@ def test_hazard_makes_a_leader_brake_at_hazard_decel(road):
         assert not src._hazards or all(h.end > src.t for h in src._hazards.values())
 
 
+def test_a_vehicles_hazards_do_not_move_when_other_traffic_changes(road):
+    """Common random numbers: a vehicle's hazards are a function of the seed and its id, so
+    taking one car off the road (as a crash does) leaves the other vehicles' hazards."""
+
+    def run(remove_one: bool) -> set[tuple[float, str]]:
+        starts, braking = set(), set()
+        with SumoSource(config(road, end=60.0, seed=5, hazard_rate=200.0)) as src:
+            while not src.done:
+                if remove_one and abs(src.t - 5.0) < 1e-6:
+                    libsumo.vehicle.remove(libsumo.vehicle.getIDList()[0])
+                src.advance()
+                now = set(src._hazards)
+                starts |= {(round(src.t, 1), vid) for vid in now - braking}
+                braking = now
+        return starts
+
+    plain, disturbed = run(False), run(True)
+    assert len(plain) > 20
+    assert len(plain & disturbed) >= 0.9 * len(plain)
+
+
 def test_closed_loop_brake_and_hand_back(road):
     with SumoSource(config(road, end=60.0, seed=3)) as src:
         for _ in range(250):

@@ -442,7 +442,7 @@ def simulate(
                     logic[m].reset(new)
                     metrics[m].reset(new)
                 if driver is not None:
-                    driver.reset(new)
+                    driver.new_vehicles(new, getattr(source, "vehicle_ids", None))
             levels = {}
             for m in cfg.methods:
                 levels[m] = logic[m].step(**warning_inputs(p, m, active))

@@ -6,17 +6,24 @@ model).  The episode ends by itself after its duration, or earlier when a forwar
 warning (FCW on) makes him look back; either way he then needs his reaction time before he
 brakes (:class:`acc_fusion.truth.driver.Driver`).
 
-Each driver's episodes are a renewal process over his attentive driving time:
+Each driver's episodes are a schedule fixed in advance, in simulated time from when he
+takes the wheel: episode k starts a gap after the drawn end of episode k-1 and lasts its
+drawn duration,
 
 .. math::
 
+    S_k = S_{k-1} + T_{\text{off},k-1} + \Delta t_{\text{gap},k}, \qquad
     \Delta t_\text{gap} \sim \operatorname{Exp}(3600 / r), \qquad
     T_\text{off} = \operatorname{clip}\!\left(m\, e^{s z},\ T_{\min}, T_{\max}\right),
     \quad z \sim N(0, 1)
 
-with ``r`` episodes per hour.  The draws of a driver's k-th episode are a function of the
-seed, his slot and k only, so two runs on the same seed (FCW off and on) give a driver the
-same episodes until the runs' traffic differs.
+with ``r`` episodes per hour of scheduled attentive time.  An episode that falls due while
+the driver is reacting or braking is skipped.  The draws of a driver's k-th episode are a
+function of the seed, his key (his slot, or his vehicle's id:
+:meth:`acc_fusion.truth.driver.Driver.assign`) and k only, and a warning that cuts an
+episode short moves none of the later ones, so two runs on the same seed (FCW off and on)
+give a driver the same episodes at the same times: common random numbers for the paired
+comparison (:mod:`acc_fusion.metrics.benefit`).
 
 Where the numbers come from (assumptions anchored in published figures; no naturalistic
 distribution was fitted here):
@@ -81,20 +88,20 @@ class DistractionConfig:
 
 class EpisodeDraws:
     """The gap before and the duration of each driver's k-th episode (see the module
-    docstring): reproducible per (seed, slot, k), independent of the other slots."""
+    docstring): reproducible per (seed, key, k), independent of the other drivers."""
 
     def __init__(self, config: DistractionConfig, key: int) -> None:
         self.config, self.key = config, int(key)
 
     def gap(self, slots: np.ndarray, count: np.ndarray) -> np.ndarray:
-        """Attentive time [s] before the next episode of each of ``slots``."""
+        """Attentive time [s] before episode ``count`` of each of ``slots`` (their keys)."""
         mean = 3600.0 / self.config.rate
         return np.array(
             [self._rng(0, s, k).exponential(mean) for s, k in zip(slots, count, strict=True)]
         )
 
     def duration(self, slots: np.ndarray, count: np.ndarray) -> np.ndarray:
-        """Duration [s] of the episode that starts now for each of ``slots``."""
+        """Duration [s] of episode ``count`` of each of ``slots`` (their keys)."""
         c = self.config
         z = np.array(
             [self._rng(1, s, k).standard_normal() for s, k in zip(slots, count, strict=True)]

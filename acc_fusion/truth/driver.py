@@ -73,7 +73,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.core.slots import PairState
+from acc_fusion.core.slots import PairState, unit_key
 from acc_fusion.core.units import TIME_TOL, G
 from acc_fusion.core.validation import check_array, check_choice, check_interval, check_range
 from acc_fusion.truth.distraction import DistractionConfig, EpisodeDraws
@@ -178,21 +178,14 @@ class Driver(PairState):
         self.n_runs = int(n_runs)
         self.config = config = DriverConfig() if config is None else config
         rng = np.random.default_rng(seed)
-        z = rng.standard_normal((2, self.n_runs))
-        self.reaction_time = np.clip(
-            config.reaction_time_median * np.exp(config.reaction_time_log_sd * z[0]),
-            *config.reaction_time_range,
-        )
-        self.deceleration = np.clip(
-            config.deceleration_mean + config.deceleration_sd * z[1], *config.deceleration_range
-        )
+        self.reaction_time, self.deceleration = self._traits(rng.standard_normal((2, self.n_runs)))
         self._onset = np.full(self.n_runs, np.nan)
         self._braking = np.zeros(self.n_runs, dtype=bool)
         self._alarmed = np.zeros(self.n_runs, dtype=bool)
         distracts = config.distraction.rate > 0
         # A spawned key leaves the draws above as they were and is the same for any n_runs.
-        key = rng.spawn(1)[0].integers(2**63)
-        self._draws = EpisodeDraws(config.distraction, key) if distracts else None
+        self._key = int(rng.spawn(1)[0].integers(2**63))
+        self._draws = EpisodeDraws(config.distraction, self._key) if distracts else None
         self._eyes_back = np.full(self.n_runs, np.nan)  # end of the episode, NaN: eyes on
         self._next_episode = np.full(self.n_runs, np.nan)  # NaN: not drawn yet
         self._episodes = np.zeros(self.n_runs, dtype=np.int64)
@@ -220,9 +213,46 @@ class Driver(PairState):
         """``(N,)`` drivers looking away from the road now."""
         return ~np.isnan(self._eyes_back)
 
+    def _traits(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Reaction times and decelerations from standard normal draws ``z (2, M)``."""
+        c = self.config
+        reaction = c.reaction_time_median * np.exp(c.reaction_time_log_sd * z[0])
+        decel = c.deceleration_mean + c.deceleration_sd * z[1]
+        return np.clip(reaction, *c.reaction_time_range), np.clip(decel, *c.deceleration_range)
+
+    def assign(self, mask: np.ndarray, units: np.ndarray) -> None:
+        """Give the runs in ``mask`` new drivers, each drawn from his unit's key in
+        ``units (N,)`` (int, e.g. a hash of a SUMO vehicle id): his reaction time,
+        deceleration and eyes-off-road episodes are a function of the seed and his key only,
+        whatever slot he gets.  So two runs of the same traffic (FCW off and on) give a
+        vehicle the same driver even when their slots differ: common random numbers for the
+        paired comparison (:mod:`acc_fusion.metrics.benefit`).  Also :meth:`reset`."""
+        idx = np.flatnonzero(mask)
+        units = np.asarray(units, dtype=np.int64)
+        z = np.array([np.random.default_rng([self._key, 2, int(units[i])]).standard_normal(2)
+                      for i in idx]).reshape(-1, 2)  # fmt: skip
+        self.reaction_time[idx], self.deceleration[idx] = self._traits(z.T)
+        self._slot[idx] = units[idx]
+        self._episodes[idx] = 0
+        self._next_episode[idx] = np.nan
+        self.reset(mask)
+
+    def new_vehicles(self, mask: np.ndarray, vehicle_ids: list | None = None) -> None:
+        """The slots ``mask`` got new vehicles: give each its own driver (:meth:`assign`,
+        keyed by :func:`~acc_fusion.core.slots.unit_key` of its id) where the source names
+        its vehicles (``vehicle_ids``, one per slot), else :meth:`reset` them."""
+        if vehicle_ids is None:
+            self.reset(mask)
+            return
+        units = np.zeros(np.size(mask), dtype=np.int64)
+        for i in np.flatnonzero(mask):
+            units[i] = unit_key(vehicle_ids[i])
+        self.assign(mask, units)
+
     def reset(self, mask: np.ndarray) -> None:
         """Forget the warning and braking state of the runs in ``mask`` (a new driver's
-        vehicle in that slot keeps the slot's reaction time and deceleration draws)."""
+        vehicle in that slot keeps the slot's reaction time and deceleration draws and its
+        episode clock; :meth:`assign` gives him his own)."""
         self._onset[mask] = np.nan
         self._braking[mask] = False
         self._alarmed[mask] = False
@@ -262,7 +292,7 @@ class Driver(PairState):
         self._alarmed = alarmed
         if self.distracts:
             ended = t >= self._eyes_back - TIME_TOL  # False where eyes on (NaN)
-            self._look_back(ended, t)
+            self._look_back(ended)
             self._onset[ended & np.isnan(self._onset) & ~self._braking] = t
         due = t >= self._onset + self.reaction_time - TIME_TOL  # False where no onset (NaN)
         if self.config.brakes_only_for_threats and threat is not None:
@@ -272,28 +302,36 @@ class Driver(PairState):
         self._onset[due] = np.nan
         self._braking &= ~self._released(warned, frame)
         if self.distracts:
-            self._look_back(due & self.eyes_off, t)  # a warning cut the episode short
+            self._look_back(due & self.eyes_off)  # a warning cut the episode short
             self._look_away(t)
         return np.where(self._braking, self.deceleration, 0.0)
 
     def _look_away(self, t: float) -> None:
-        """Start the episodes that are due among the idle drivers; keep :attr:`holding`."""
+        """Start the episodes that are due, where the driver is idle (else the episode is
+        skipped); schedule each due episode's successor; keep :attr:`holding`.
+
+        The schedule is fixed in advance, whatever happens on the road: episode k+1 is due
+        ``gap`` after the *drawn* end of episode k (:mod:`acc_fusion.truth.distraction`), so
+        a warning that cuts an episode short moves none of the later ones."""
         undrawn = np.flatnonzero(np.isnan(self._next_episode))
         self._next_episode[undrawn] = t + self._draws.gap(
             self._slot[undrawn], self._episodes[undrawn]
         )
-        idle = np.isnan(self._onset) & ~self._braking & ~self.eyes_off
-        start = np.flatnonzero(idle & (t >= self._next_episode - TIME_TOL))
-        self._eyes_back[start] = t + self._draws.duration(self._slot[start], self._episodes[start])
-        self._episodes[start] += 1
-        self._holding[start] = True
+        due = np.flatnonzero(t >= self._next_episode - TIME_TOL)
+        if due.size:
+            k = self._episodes[due]
+            length = self._draws.duration(self._slot[due], k)
+            idle = np.isnan(self._onset[due]) & ~self._braking[due] & ~self.eyes_off[due]
+            start = due[idle]
+            self._eyes_back[start] = t + length[idle]
+            self._holding[start] = True
+            self._episodes[due] += 1
+            self._next_episode[due] += length + self._draws.gap(self._slot[due], k + 1)
         self._holding &= self.eyes_off | ~np.isnan(self._onset) | self._braking
 
-    def _look_back(self, mask: np.ndarray, t: float) -> None:
-        """End the episodes of ``mask`` now; draw when the next one starts."""
-        idx = np.flatnonzero(mask)
-        self._eyes_back[idx] = np.nan
-        self._next_episode[idx] = t + self._draws.gap(self._slot[idx], self._episodes[idx])
+    def _look_back(self, mask: np.ndarray) -> None:
+        """End the episodes of ``mask`` now."""
+        self._eyes_back[mask] = np.nan
 
     def _released(self, warned: np.ndarray, frame: TruthFrame) -> np.ndarray:
         """Drivers whose release condition holds now."""

@@ -13,13 +13,19 @@ Closed loop
     car-following model, which would see the lead for the driver, is out of the loop.
 
 Threats (so that false-alarm and miss rates mean something)
-    - *Lead-vehicle emergency braking*: events at ``hazard_rate`` per vehicle-hour (Poisson,
-      :math:`\lambda = r\, n_{\text{veh}}\, \Delta t / 3600` per step); a uniformly drawn
-      vehicle (equipped or not) brakes at ``hazard_decel`` for ``hazard_duration`` seconds
-      (commanded speed :math:`v_{k+1} = \max(v_k - a\,\Delta t, 0)` with SUMO's
-      deceleration limit lifted, its emergency deceleration raised to ``hazard_decel`` if
-      lower), then control returns to SUMO.  :meth:`SumoControls.inject_hazard` starts one on
-      a chosen vehicle.
+    - *Lead-vehicle emergency braking*: events at ``hazard_rate`` per vehicle-hour, a
+      Poisson process of its own for every vehicle (equipped or not) while it is in the
+      network: its k-th event comes :math:`\Delta t_k \sim \operatorname{Exp}(3600 / r)`
+      after its departure or its previous event, drawn from a generator keyed by the seed,
+      the vehicle's id (:func:`acc_fusion.core.slots.unit_key`) and k.  So two runs on the
+      same seed (FCW off and on) brake the same vehicles at the same times, however their
+      traffic differs elsewhere: common random numbers for the paired comparison
+      (:mod:`acc_fusion.metrics.benefit`).  The vehicle brakes at ``hazard_decel`` for
+      ``hazard_duration`` seconds (commanded speed :math:`v_{k+1} = \max(v_k - a\,\Delta t,
+      0)` with SUMO's deceleration limit lifted, its emergency deceleration raised to
+      ``hazard_decel`` if lower), then control returns to SUMO (an event that falls while it
+      brakes or teleports is skipped).  :meth:`SumoControls.inject_hazard` starts one on a
+      chosen vehicle.
     - *Inattentive drivers*: a fraction ``inattentive`` of the equipped vehicles gets SUMO's
       action step length (the driver's decision interval, SUMO's model of reaction time)
       ``inattentive_action_step`` (1.5 s, Green 2000's "surprise" brake reaction) instead of
@@ -35,6 +41,7 @@ for a vehicle with a long action step length.
 
 from __future__ import annotations
 
+import heapq
 import math
 from dataclasses import dataclass
 
@@ -42,6 +49,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import WARNING_COLORS
+from acc_fusion.core.slots import unit_key
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_range
 
@@ -90,6 +98,12 @@ class SumoControls:
         self.n_hazards += 1
         return True
 
+    def _schedule_hazard(self, vehicle_id: str, k: int) -> None:
+        """Start the clock of ``vehicle_id``'s ``k``-th hazard now (module docstring)."""
+        rng = np.random.default_rng([self._hazard_key, unit_key(vehicle_id), k])
+        gap = rng.exponential(3600.0 / self.config.hazard_rate)
+        heapq.heappush(self._hazard_due, (self._t + gap, vehicle_id, k))
+
     def set_warning_colors(self, levels: np.ndarray) -> None:
         """Colour each slot's vehicle by its warning level (0 green, 1 amber, 2 red); only
         changed colours are sent.  ``levels`` covers every slot or the first ones (the prefix
@@ -114,13 +128,12 @@ class SumoControls:
     def _control(self, brake: np.ndarray | None, hold: np.ndarray | None = None) -> None:
         """Start hazards, then command the braking and held vehicles and hand back the
         others."""
-        cfg, dt, veh = self.config, self.dt, self._api.vehicle
-        if cfg.hazard_rate > 0 and self._info:
-            count = self._rng_hazard.poisson(cfg.hazard_rate * len(self._info) * dt / 3600.0)
-            if count:
-                ids = list(veh.getIDList())  # SUMO's order: reproducible
-                for pick in self._rng_hazard.integers(len(ids), size=count):
-                    self.inject_hazard(ids[pick])
+        dt, veh, due = self.dt, self._api.vehicle, self._hazard_due
+        while due and due[0][0] <= self._t + TIME_TOL:
+            _, vid, k = heapq.heappop(due)
+            if vid in self._info:  # a vehicle that left: its clock stops
+                self.inject_hazard(vid)
+                self._schedule_hazard(vid, k + 1)
         targets: dict[str, float] = {}
         for vid, hz in list(self._hazards.items()):
             if self._t >= hz.end - TIME_TOL:

@@ -56,7 +56,10 @@ Reproducibility
     ``numpy`` generators spawned from the same seed (one per purpose, one equipped and one
     inattentive draw per departing vehicle in SUMO's departure order), so a run is
     reproducible from its config, and (for the same traffic) a higher penetration equips a
-    superset of the vehicles of a lower one.
+    superset of the vehicles of a lower one.  A vehicle's hazards are a function of the seed
+    and its id only (:mod:`acc_fusion.truth.sumo.control`), so two runs on the same seed that
+    differ in one vehicle's driving (FCW off and on) still brake the same leads at the same
+    times.
 
 Sources: SUMO documentation (TraCI vehicle value retrieval, ``simulation.getCollisions``,
 collision options).  Verified against eclipse-sumo / libsumo 1.28: ``getLeader``'s result is
@@ -198,7 +201,9 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
         self._n_steps = max(0, int(math.ceil((self.end_time - self.begin) / self.dt - 1e-6)))
         n = self.n_pairs = int(cfg.capacity)
         ss = np.random.SeedSequence(int(cfg.seed)).spawn(3)
-        self._rng_equip, self._rng_inatt, self._rng_hazard = (np.random.default_rng(s) for s in ss)
+        self._rng_equip, self._rng_inatt = (np.random.default_rng(s) for s in ss[:2])
+        self._hazard_key = int(np.random.default_rng(ss[2]).integers(2**63))
+        self._hazard_due: list[tuple[float, str, int]] = []  # (time, vehicle, k): a heap
         # Per vehicle in the network: (integer id, equipped, inattentive), and the code of its
         # integer id and slot (_set_code; the compiled reader's table where it reads).
         self._info: dict[str, tuple[int, bool, bool]] = {}
@@ -436,6 +441,8 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
         self._info[vid] = (self._new_int(), equipped, inatt)
         self._set_code(vid)
         self.n_departed += 1
+        if cfg.hazard_rate > 0:
+            self._schedule_hazard(vid, 0)
         if self._subscribed:
             if equipped:
                 variables = [self._v_speed, self._v_accel, self._v_leader]
