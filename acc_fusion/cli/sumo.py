@@ -33,8 +33,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "processes: FCW off (every method watches, no driver is warned) and FCW on (the "
         "federated alerts make equipped drivers brake), on the same seed. Prints false "
         "alarms per hour and per 100 km, miss rate, lead time and collisions, with 95% "
-        "intervals, the oracle's TTC against SUMO's SSM device, the alerts by class judged "
-        "from truth, and the crashes FCW avoids (paired by vehicle, bootstrap interval). "
+        "intervals, the alerts by class judged from truth, and the crashes FCW avoids: "
+        "paired by vehicle (bootstrap interval), and each crash of the FCW-off run replayed "
+        "with every method's warnings (Wilson interval). "
         "The equipped drivers look away from the road now and then (--distraction). "
         "With --world, the 2-D object pipeline instead, open loop (FCW off).",
     )
@@ -50,6 +51,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         action="store_true",
         help="one FCW-on run per method (radar, infrared, centralized, federated driving the "
         "alert), to compare the crashes each avoids (two at a time)",
+    )
+    p.add_argument(
+        "--ssm",
+        action="store_true",
+        help="also compare the oracle's minimum TTC per vehicle with SUMO's SSM device in the "
+        "FCW-off run (a cross-check of the TTC; more than doubles that run's time)",
     )
     p.add_argument(
         "--world",
@@ -104,8 +111,8 @@ def run(args: argparse.Namespace) -> int:
     path = resolve_sumocfg(args.net, args.sumocfg)
     if args.conditions and not args.world:
         raise ConfigError("--conditions is a setting of the 2-D pipeline; add --world")
-    if args.world and (args.gui or args.all_drives):
-        raise ConfigError("--world runs open loop and headless; drop --gui and --all-drives")
+    if args.world and (args.gui or args.all_drives or args.ssm):
+        raise ConfigError("--world runs open loop and headless; drop --gui, --all-drives and --ssm")
     sumo_cfg = traffic_config(
         args, path, seed=args.seed or 0, gui=args.gui, step_length=args.step_length
     )
@@ -114,10 +121,13 @@ def run(args: argparse.Namespace) -> int:
     out = output_dir(args.out) if args.out else None
     sim = traffic_sim_config(args)
     drives = sim.methods if args.all_drives else ()
-    study = sumo_study(sumo_cfg, sim, progress=True, drives=drives)
+    study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm)
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())
     print("\n" + study.benefits().format())
+    replayed = study.replayed()
+    if replayed:
+        print("\n" + study.replayed_table().format())
     if out is not None:
         write_study(
             out,
@@ -129,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
             ssm=study.ssm_agreement(),
             benefit=study.benefit().as_dict(),
             benefit_by_method={m: b.as_dict() for m, b in study.benefit_by_method().items()},
+            benefit_replayed={m: b.as_dict() for m, b in replayed.items()},
             errors=list(study.errors().values()),
         )
     return 1 if study.errors() else 0

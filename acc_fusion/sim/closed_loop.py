@@ -150,6 +150,8 @@ class StepView:
     oracle: np.ndarray
     ttc: np.ndarray
     relevant: np.ndarray
+    driver: Driver | None = None
+    """The drivers (closed loop), after their step: their brake requests for this step."""
 
 
 @dataclass
@@ -457,17 +459,14 @@ def simulate(
                     p.relevant,
                 )
             t_last = frame.t
-            if on_step is not None:
-                on_step(
-                    StepView(
-                        frame, p.measurements, p.estimates, levels, p.oracle, p.ttc, p.relevant
-                    )
-                )
             brake = None
             if driver is not None:  # the brake requests of the slots beyond the prefix: none
                 heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)
                 brake = np.zeros(n)
                 brake[: frame.n_pairs] = driver.step(heard, frame, p.relevant)
+            if on_step is not None:
+                view = (frame, p.measurements, p.estimates, levels, p.oracle, p.ttc, p.relevant)
+                on_step(StepView(*view, driver))
             if driver is not None and driver.distracts:
                 hold = np.zeros(n, dtype=bool)
                 hold[: frame.n_pairs] = driver.holding

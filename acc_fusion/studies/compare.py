@@ -96,9 +96,13 @@ BENEFIT_COLUMNS = (
 )  # fmt: skip
 
 
-def benefit_table(title: str, benefits: dict[str, Benefit], unit: str = "vehicles") -> Table:
+def benefit_table(
+    title: str, benefits: dict[str, Benefit], unit: str = "vehicles", note: str | None = None
+) -> Table:
     """The crashes FCW avoided with each method driving the alert, paired by ``unit``
-    (vehicles or runs driven with FCW off and on, :mod:`acc_fusion.metrics.benefit`)."""
+    (vehicles or runs driven with FCW off and on, :mod:`acc_fusion.metrics.benefit`);
+    ``note`` replaces the note that says so (e.g. for the replay of
+    :mod:`acc_fusion.metrics.counterfactual`)."""
     t = Table(title, BENEFIT_COLUMNS)
     for drive, b in benefits.items():
         t.rows.append(
@@ -118,7 +122,9 @@ def benefit_table(title: str, benefits: dict[str, Benefit], unit: str = "vehicle
             }
         )
     first = next(iter(benefits.values()), None)
-    if first is not None:
+    if note is not None:
+        t.notes.append(note)
+    elif first is not None:
         t.notes.append(
             f"pairs: {unit} driven with FCW off and on; reduction = 1 - crashes on / crashes "
             f"off, {first.confidence:.0%} bootstrap interval over the {unit}; impact speed: "

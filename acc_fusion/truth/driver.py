@@ -209,6 +209,11 @@ class Driver(PairState):
         return self._holding.copy()
 
     @property
+    def reacting(self) -> np.ndarray:
+        """``(N,)`` drivers with an onset pending: reacting, not yet braking."""
+        return ~np.isnan(self._onset)
+
+    @property
     def eyes_off(self) -> np.ndarray:
         """``(N,)`` drivers looking away from the road now."""
         return ~np.isnan(self._eyes_back)
