@@ -40,7 +40,9 @@ def test_radar_bias_is_isolated_and_costs_far_less_than_in_the_centralized_filte
     # Without the radar only the infrared is left: the federated filter cannot stay within
     # 1.5x of a radar-dominated healthy RMSE, but it must stay well below the centralized one.
     assert fed["ratio_to_healthy"] < central["ratio_to_healthy"] / 5
-    assert fed["isolated_frac"] > 0.4  # radar isolated for most of the 5 s fault (of 2 sensors)
+    # The radar is out for much of the 5 s fault (of 2 sensors), or back with its bias
+    # removed where the estimate is already good enough (acc_fusion.fusion.bias).
+    assert fed["isolated_frac"] > 0.3
 
 
 def test_healthy_sensors_are_rarely_isolated(faults):

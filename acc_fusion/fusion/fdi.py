@@ -102,6 +102,10 @@ local filter's own innovation with its information share undone).  Two tests use
   radar: federated gap RMSE 6.76x healthy when it was isolated after the window test, 5.0x
   with R adapted (infrared alone: 5.8x).
 
+* **Bias** (per sensor, accommodated by estimating it): an isolated sensor's bias is
+  estimated against a sensor still in the fusion, then removed from its reports, and it
+  rejoins (:mod:`acc_fusion.fusion.bias`, Friedland's separate-bias estimator).
+
 * **Dropout** (per sensor, by the age of its last report): a sensor that has not reported
   for a pair for ``dropout_time`` seconds is *silent* (:attr:`WindowedChiSquare.silent`).
   Nothing needs isolating (a silent sensor adds nothing to the fusion); the flag tells the
@@ -126,9 +130,14 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_range
+from acc_fusion.fusion.bias import bias_one, uncorrect_other
 from acc_fusion.fusion.variance_test import (
     _TERM_LIMIT,
     _TERM_MEDIAN,
+    BIAS_COUNT,
+    BIAS_RANGE,
+    BIAS_RATE,
+    BIAS_VAR,
     LAST_SIZE,
     NOISE_TERM_PROB,
     SCALE,
@@ -168,6 +177,12 @@ class FDIConfig:
         max_noise_scale: upper bound of the factor on a sensor's declared R during a noise
             burst (default 400: a noise standard deviation up to 20 times the declared one;
             an assumption).
+        bias_reports: fewest differences in an isolated sensor's bias estimate before its
+            measurements are corrected (default 10; an assumption); 0 turns the bias
+            accommodation off.
+        bias_std: largest standard error of the range bias estimate [m] at which the
+            correction starts (default 0.1, an assumption: well below the radar's 0.25 m
+            range noise, so that what is left of the bias is small beside it).
     """
 
     window: int = 10
@@ -182,12 +197,19 @@ class FDIConfig:
     noise_alpha: float = 1e-5
     max_noise_scale: float = 400.0
     dropout_time: float = 0.5
+    bias_reports: int = 10
+    bias_std: float = 0.1
 
     def __post_init__(self) -> None:
-        if not isinstance(self.window, int) or not 1 <= self.window <= 10_000:
-            raise ConfigError(
-                f"fdi.window must be a whole number in [1, 10000], got {self.window!r}"
-            )
+        for name, lo, hi in (
+            ("window", 1, 10_000), ("stuck_pairs", 1, 10_000), ("bias_reports", 0, 10_000),
+            ("common_steps", 0, 1000),
+        ):  # fmt: skip
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+                raise ConfigError(
+                    f"fdi.{name} must be a whole number in [{lo}, {hi}], got {value!r}"
+                )
         check_range("fdi.alpha", self.alpha, 0.0, 1.0, lo_open=True, hi_open=True)
         check_range("fdi.gate_prob", self.gate_prob, 0.0, 1.0, lo_open=True, hi_open=True)
         check_range("fdi.clip_prob", self.clip_prob, 0.0, 1.0, lo_open=True, hi_open=True)
@@ -195,14 +217,7 @@ class FDIConfig:
         check_range("fdi.noise_alpha", self.noise_alpha, 0.0, 1.0, lo_open=True, hi_open=True)
         check_range("fdi.max_noise_scale", self.max_noise_scale, 1.0, 1e6)
         check_range("fdi.dropout_time", self.dropout_time, 0.0, 1e6, lo_open=True)
-        if not isinstance(self.stuck_pairs, int) or not 1 <= self.stuck_pairs <= 10_000:
-            raise ConfigError(
-                f"fdi.stuck_pairs must be a whole number in [1, 10000], got {self.stuck_pairs!r}"
-            )
-        if not isinstance(self.common_steps, int) or not 0 <= self.common_steps <= 1000:
-            raise ConfigError(
-                f"fdi.common_steps must be a whole number in [0, 1000], got {self.common_steps!r}"
-            )
+        check_range("fdi.bias_std", self.bias_std, 0.0, 1e3, lo_open=True)
 
 
 class WindowedChiSquare(PairState):
@@ -262,7 +277,7 @@ class WindowedChiSquare(PairState):
             self.gate, self.clip, self.threshold, int(cfg.common_steps), bool(cfg.manoeuvre),
             (
                 self.still, float(cfg.stuck_pairs), self.noisy, self.dt, cfg.max_noise_scale,
-                _TERM_LIMIT, _TERM_MEDIAN,
+                _TERM_LIMIT, _TERM_MEDIAN, float(cfg.bias_reports), cfg.bias_std**2,
             ),
         )  # fmt: skip
 
@@ -275,6 +290,21 @@ class WindowedChiSquare(PairState):
     def noise_scale(self) -> np.ndarray:
         """``(N, S)`` factor on each sensor's declared R (1 outside a noise burst)."""
         return self._last[..., SCALE]
+
+    @property
+    def bias(self) -> np.ndarray:
+        """``(N, S, 2)`` bias estimates [m, m/s] (:mod:`acc_fusion.fusion.bias`), a copy."""
+        return self._last[..., BIAS_RANGE : BIAS_RATE + 1].copy()
+
+    @property
+    def bias_corrected(self) -> np.ndarray:
+        """``(N, S)`` sensors whose measurements are corrected by their bias estimate."""
+        return self._last[..., BIAS_COUNT] < 0
+
+    def correct(self, z: np.ndarray) -> np.ndarray:
+        """The measurements ``z (S, N, 2)`` with every established bias removed (a copy)."""
+        correction = np.where(self.bias_corrected[..., None], self.bias, 0.0)
+        return z - correction.transpose(1, 0, 2)  # as correct_bias_one, pair by pair
 
     def arrays(self) -> tuple[np.ndarray, ...]:
         """The state arrays, in the order of :func:`window_one`'s arguments after the
@@ -383,6 +413,15 @@ def window_one(
         # A report beyond the gate that another sensor's latest report confirms is the road,
         # not a fault (a spike, a ghost or a stuck value disagrees with it).
         shared = rep and nis[i, s] > gate and cross <= clip
+        if (
+            rep
+            and not frozen[i, s]
+            and var[7] > 0
+            and (isolated[i, s] or last[i, s, BIAS_COUNT] < 0)
+        ):
+            if bias_one(i, s, z, r, last, age, verdict, isolated, var[7], var[8]):
+                suspect[i, s] = False  # corrected from now on: test the corrected reports
+                _clear_window(i, s, buf, total, count, pos)
         rejoined[i, s] = False
         accepted[i, s] = rep and not isolated[i, s] and (nis[i, s] <= gate or shared)
         if rep and not shared and count[i, s] < 0:  # settling after a manoeuvre: not tested
@@ -399,14 +438,19 @@ def window_one(
             fail = total[i, s] > threshold
             if not fail:
                 suspect[i, s] = False
+            if fail and isolated[i, s] and last[i, s, BIAS_COUNT] < 0:  # the bias changed
+                last[i, s, BIAS_RANGE : BIAS_VAR + 1] = 0.0
             if fail and not isolated[i, s] and manoeuvre_first and not suspect[i, s]:
                 suspect[i, s] = True  # a manoeuvre, unless the next window fails too
                 manoeuvre[i] = True
                 _clear_window(i, s, buf, total, count, pos)
                 count[i, s] = -(w // 2)
             elif fail != isolated[i, s] and not frozen[i, s]:  # newly isolated, or rejoining
-                if fail:
+                if fail and uncorrect_other(i, s, last, isolated):
+                    fail = False  # a corrected sensor is the first suspect: it lost its bias
+                elif fail:
                     accepted[i, s] = False
+                    last[i, s, BIAS_RANGE : BIAS_VAR + 1] = 0.0  # a new bias, if any
                 else:
                     rejoined[i, s] = True
                 isolated[i, s] = fail

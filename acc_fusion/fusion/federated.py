@@ -174,8 +174,9 @@ class FederatedFilter(Estimator):
                 self.locals.assign(s, init, x0, p0, infl[s])
             ini = self.initialised = ini | init
 
-        if self.fdi is not None:  # a noise burst's adapted R
+        if self.fdi is not None:  # a noise burst's adapted R, an estimated bias removed
             r = r * self.fdi.noise_scale.T[:, :, None, None]
+            z = self.fdi.correct(z)
         reporting = ini[None] & valid & ~consumed
         xm, pm = np.array(self.master.x[0]), np.array(self.master.p[0])
         nis = np.stack(

@@ -20,6 +20,7 @@ from acc_fusion.filters.kalman import (
     predict_one,
     update_one,
 )
+from acc_fusion.fusion.bias import correct_bias_one
 from acc_fusion.fusion.fdi import SCALE, reset_one, window_one
 
 
@@ -95,7 +96,7 @@ _NO_FDI = (
 )  # fmt: skip
 
 
-_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0))
+_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0))
 
 
 @njit(cache=True)
@@ -164,8 +165,9 @@ def _federated_step(
                 consumed[k, first] = True
         ini = initialised[k]
         for s in range(n_s):
-            if has_fdi:  # a noise burst's adapted R
+            if has_fdi:  # a noise burst's adapted R, an estimated bias removed
                 r[s, k] *= last[k, s, SCALE]
+                correct_bias_one(k, s, z, last)
             reporting[k, s] = ini and valid[s, k] and not consumed[k, s]
             if reporting[k, s]:
                 nis[k, s] = nis_one(xm[k], pm[k], h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
