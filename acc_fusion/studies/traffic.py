@@ -63,7 +63,7 @@ class SumoRun:
     ``steps`` counts the simulation steps of a completed run.  ``vehicles``: the equipped
     vehicles driven; ``crashes``: the impact speed of each that ran into its lead;
     ``conflicts``: the FCW-off closed loop's record of each crash, for the replay of
-    :mod:`acc_fusion.metrics.counterfactual`;
+    :mod:`acc_fusion.metrics.counterfactual` (``None`` in other runs);
     ``ssm_pairs``: (oracle, SSM) minimum TTC [s] per vehicle, ``None`` without the cross-check.
     """
 
@@ -76,7 +76,7 @@ class SumoRun:
     steps: int = 0
     vehicles: set[str] = field(default_factory=set)
     crashes: dict[str, float] = field(default_factory=dict)
-    conflicts: list[ConflictRecord] = field(default_factory=list)
+    conflicts: list[ConflictRecord] | None = None
 
 
 def _run(
@@ -125,7 +125,7 @@ def _run(
             steps,
             crashes.units,
             crashes.crashes,
-            list(crashes.conflicts.values()),
+            list(crashes.conflicts.values()) if history else None,
         )
 
 
@@ -210,7 +210,7 @@ class SumoStudy:
         """Per method, the crashes of the FCW-off run its warnings would have avoided,
         replayed crash by crash (:mod:`acc_fusion.metrics.counterfactual`; empty when the
         FCW-off run was open loop, without drivers)."""
-        if not self.off.conflicts:
+        if self.off.conflicts is None:
             return {}
         km, driver = exposure_km(self.off.summaries), self.driver
         return {
