@@ -45,6 +45,14 @@ def test_the_cause_is_what_the_selected_object_is_in_truth(truth_id, cause):
     assert CAUSES[alert_cause(_frame(), np.array([truth_id]))[0]] == cause
 
 
+def test_a_lead_that_has_just_cut_in_is_a_cut_in_not_the_lead():
+    frame = _frame()
+    frame.lateral_speed[0, 0] = 0.8  # the lead still moving across: it has just cut in
+    assert CAUSES[alert_cause(frame, np.array([10]))[0]] == "cut_in_out"
+    frame.lateral_speed[0, 0] = 0.3  # settled in the lane
+    assert CAUSES[alert_cause(frame, np.array([10]))[0]] == "lead"
+
+
 def test_conditions_are_parsed_and_bad_ones_are_one_error():
     assert parse_conditions("night+fog=60") == Conditions("night", 60.0)
     assert parse_conditions("rain=25") == Conditions(rain_rate=25.0)

@@ -67,9 +67,11 @@ def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
     """``(E,)`` index into :data:`CAUSES` of what each ego's selected object is in truth.
 
     ``truth_id (E,)`` is the true object id behind the selected object (``-1`` for a ghost or
-    clutter track).  The true in-path lead is ``lead``; a stationary kind is ``stationary``; a
-    vehicle moving across its lane faster than :data:`LANE_CHANGE_SPEED` is ``cut_in_out``;
-    any other vehicle ``adjacent``; an id not in the frame (or ``-1``) ``ghost``.
+    clutter track).  A vehicle moving across its lane faster than :data:`LANE_CHANGE_SPEED`
+    is ``cut_in_out``, the true lead included (it has just cut in, or is cutting out: a
+    source such as SUMO makes a vehicle the ego's leader the moment it changes lanes); the
+    true in-path lead otherwise is ``lead``; a stationary kind is ``stationary``; any other
+    vehicle ``adjacent``; an id not in the frame (or ``-1``) ``ghost``.
     """
     n = frame.n_egos
     if not frame.max_objects:  # no object ahead of any ego: whatever is selected is a ghost
@@ -81,18 +83,14 @@ def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
     rows = np.arange(n)
     kind = frame.kind[rows, k]
     stationary = frame.stationary[rows, k]
-    sideways = np.abs(frame.lateral_speed[rows, k]) > LANE_CHANGE_SPEED
-    cause = np.where(
-        stationary,
-        CAUSES.index("stationary"),
-        np.where(
-            (kind == ObjectKind.VEHICLE) & sideways,
-            CAUSES.index("cut_in_out"),
-            CAUSES.index("adjacent"),
-        ),
+    changing = (kind == ObjectKind.VEHICLE) & (
+        np.abs(frame.lateral_speed[rows, k]) > LANE_CHANGE_SPEED
     )
+    lead = found & (truth_id == lead_id) & ~changing
+    cause = np.where(stationary, CAUSES.index("stationary"), CAUSES.index("adjacent"))
+    cause = np.where(changing, CAUSES.index("cut_in_out"), cause)
     cause = np.where(found, cause, CAUSES.index("ghost"))
-    return np.where(found & (truth_id == lead_id), CAUSES.index("lead"), cause).astype(np.int64)
+    return np.where(lead, CAUSES.index("lead"), cause).astype(np.int64)
 
 
 @dataclass
