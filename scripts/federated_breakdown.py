@@ -1,7 +1,9 @@
 """Why the federated filter raises sensing-false alerts that the centralized filter does not.
 
-Runs one SUMO scenario open loop (FCW off, drivers not distracted, so both methods watch the
-same traffic), classes every alert from truth as ``acc-fusion sumo`` does
+Runs one SUMO scenario with FCW off, both methods watching the same traffic: open loop with
+attentive drivers (the default), or with ``--distraction RATE`` the FCW-off closed loop of
+``acc-fusion sumo`` (drivers looking away and braking by themselves, deaf to warnings);
+classes every alert from truth as ``acc-fusion sumo`` does
 (:class:`~acc_fusion.metrics.events.FCWMetrics`, one per method, fed the same inputs as in
 :func:`~acc_fusion.sim.closed_loop.simulate`), and attributes each sensing-false alert to the
 first mechanism that held at its onset, in this order:
@@ -51,6 +53,7 @@ from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.sim.closed_loop import StepView, simulate
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
+from acc_fusion.truth.sumo.source import SumoSource
 
 METHODS = ("centralized", "federated")
 CLASSES = ("sensing_false", "nuisance", "crash_relevant")
@@ -255,19 +258,21 @@ def main() -> None:
     add_traffic_arguments(p)
     add_sim_arguments(p, None)
     args = p.parse_args()
-    if args.distraction:
-        p.error("--distraction: the breakdown runs open loop, every driver attentive")
-    args.distraction = 0.0
+    args.distraction = args.distraction or 0.0
+    distracted = args.distraction > 0  # the FCW-off closed loop of `acc-fusion sumo`
     path = resolve_sumocfg(args.net, args.sumocfg)
     sumo_cfg = traffic_config(args, path, seed=args.seed or 0)
-    sim = replace(traffic_sim_config(args), drive=None, methods=METHODS)
+    drive = METHODS[-1] if distracted else None
+    sim = replace(traffic_sim_config(args), drive=drive, methods=METHODS)
     fdi = sim.fusion.fdi
     gate = float(chi2.ppf(fdi.gate_prob if fdi is not None else 0.9999, 2))
     dropout = fdi.dropout_time if fdi is not None else 0.5
-    with BackgroundSumoSource(sumo_cfg) as source:
+    with (SumoSource if distracted else BackgroundSumoSource)(sumo_cfg) as source:
         brk = Breakdown(source, source.dt, sim.tolerance, sim.warn_level, gate, args.recent,
                         dropout, 0.5 * sim.fusion.filter.init_accel_std**2)  # fmt: skip
-        result = simulate(replace(sim, dt=source.dt), source=source, on_step=brk)
+        result = simulate(
+            replace(sim, dt=source.dt), source=source, on_step=brk, warnings_on=False
+        )
         brk.finish()
     print(report(brk, result.summaries, sim.tolerance))
 
