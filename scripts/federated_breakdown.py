@@ -270,9 +270,7 @@ def main() -> None:
     with (SumoSource if distracted else BackgroundSumoSource)(sumo_cfg) as source:
         brk = Breakdown(source, source.dt, sim.tolerance, sim.warn_level, gate, args.recent,
                         dropout, 0.5 * sim.fusion.filter.init_accel_std**2)  # fmt: skip
-        result = simulate(
-            replace(sim, dt=source.dt), source=source, on_step=brk, warnings_on=False
-        )
+        result = simulate(replace(sim, dt=source.dt), source=source, on_step=brk, warnings_on=False)
         brk.finish()
     print(report(brk, result.summaries, sim.tolerance))
 
