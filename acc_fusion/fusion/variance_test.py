@@ -20,12 +20,10 @@ def _quad(d0, d1, a, b, c, e):  # pragma: no cover - compiled
 #: Layout of ``last[i, s]`` (:func:`_variance_test`): the latest report (range, range-rate), its
 #: R row by row, the frozen sum, the reports in the current test, the R factor, the bias
 #: estimate (range, range-rate), the differences in it and the sum of their range variances
-#: (:func:`acc_fusion.fusion.fdi.bias_one`), the reports in a row beyond the gate that no
-#: other sensor could check (:func:`acc_fusion.fusion.fdi.window_one`); then the K noise
-#: terms of the test.
+#: (:func:`acc_fusion.fusion.fdi.bias_one`); then the K noise terms of the test.
 Z_RANGE, Z_RATE, R_00, R_01, R_10, R_11, FROZEN_SUM, COUNT, SCALE = range(9)
-BIAS_RANGE, BIAS_RATE, BIAS_COUNT, BIAS_VAR, UNCHECKED = 9, 10, 11, 12, 13
-LAST_SIZE = 14
+BIAS_RANGE, BIAS_RATE, BIAS_COUNT, BIAS_VAR = 9, 10, 11, 12
+LAST_SIZE = 13
 #: A noise term beyond its ``NOISE_TERM_PROB`` point counts towards a noise burst.
 NOISE_TERM_PROB = 0.99
 _TERM_LIMIT = float(chi2.ppf(NOISE_TERM_PROB, 1))
