@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())
     print("\n" + study.benefits().format())
-    replayed = study.replayed()
+    replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
     if out is not None:

@@ -101,7 +101,12 @@ def uncorrect_other(i, s, last, isolated):  # pragma: no cover - compiled
     sensor's window tests it raw from now on) and return True (``s`` is not isolated)."""
     for o in range(last.shape[1]):
         if o != s and not isolated[i, o] and last[i, o, BIAS_COUNT] < 0:
-            for k in range(BIAS_RANGE, BIAS_VAR + 1):
-                last[i, o, k] = 0.0
+            forget_bias(i, o, last)
             return True
     return False
+
+
+@njit(cache=True, inline="always")
+def forget_bias(i, s, last):  # pragma: no cover - compiled
+    """Drop sensor ``s``'s bias estimate of pair ``i`` and its correction (a new one starts)."""
+    last[i, s, BIAS_RANGE : BIAS_VAR + 1] = 0.0

@@ -130,14 +130,13 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_range
-from acc_fusion.fusion.bias import bias_one, uncorrect_other
+from acc_fusion.fusion.bias import bias_one, forget_bias, uncorrect_other
 from acc_fusion.fusion.variance_test import (
     _TERM_LIMIT,
     _TERM_MEDIAN,
     BIAS_COUNT,
     BIAS_RANGE,
     BIAS_RATE,
-    BIAS_VAR,
     LAST_SIZE,
     NOISE_TERM_PROB,
     SCALE,
@@ -439,7 +438,7 @@ def window_one(
             if not fail:
                 suspect[i, s] = False
             if fail and isolated[i, s] and last[i, s, BIAS_COUNT] < 0:  # the bias changed
-                last[i, s, BIAS_RANGE : BIAS_VAR + 1] = 0.0
+                forget_bias(i, s, last)
             if fail and not isolated[i, s] and manoeuvre_first and not suspect[i, s]:
                 suspect[i, s] = True  # a manoeuvre, unless the next window fails too
                 manoeuvre[i] = True
@@ -450,7 +449,7 @@ def window_one(
                     fail = False  # a corrected sensor is the first suspect: it lost its bias
                 elif fail:
                     accepted[i, s] = False
-                    last[i, s, BIAS_RANGE : BIAS_VAR + 1] = 0.0  # a new bias, if any
+                    forget_bias(i, s, last)  # a new bias, if any
                 else:
                     rejoined[i, s] = True
                 isolated[i, s] = fail

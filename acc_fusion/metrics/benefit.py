@@ -63,6 +63,17 @@ class Benefit:
         }
 
 
+def median_speed(speeds) -> float:
+    """Median of the impact speeds ``speeds`` [m/s] (any iterable); NaN without one."""
+    speeds = np.fromiter(speeds, dtype=float)
+    return float(np.median(speeds)) if speeds.size else np.nan
+
+
+def per_million(n: float, km: float) -> float:
+    """``n`` crashes per million km of ``km`` driven (NaN without driving)."""
+    return n / km * 1e6 if km > 0 else np.nan
+
+
 def paired_benefit(
     vehicles,
     crashes_off: dict,
@@ -98,12 +109,6 @@ def paired_benefit(
         alpha = 1.0 - confidence
         lo, hi = np.quantile(r, [alpha / 2, 1 - alpha / 2])
 
-    def median(speeds) -> float:
-        return float(np.median(list(speeds))) if speeds else np.nan
-
-    def per_million(n: float, km: float) -> float:
-        return n / km * 1e6 if km > 0 else np.nan
-
     return Benefit(
         vehicles=len(ids),
         crashes_off=int(x.sum()),
@@ -116,7 +121,7 @@ def paired_benefit(
         avoided=int(sum(v not in crashes_on for v in crashes_off)),
         mitigated=int(sum(crashes_on[v] < crashes_off[v] for v in both)),
         introduced=int(sum(v not in crashes_off for v in crashes_on)),
-        impact_speed_off=median(crashes_off.values()),
-        impact_speed_on=median(crashes_on.values()),
+        impact_speed_off=median_speed(crashes_off.values()),
+        impact_speed_on=median_speed(crashes_on.values()),
         confidence=confidence,
     )

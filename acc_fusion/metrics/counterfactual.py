@@ -61,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acc_fusion.core.units import TIME_TOL
-from acc_fusion.metrics.benefit import Benefit
+from acc_fusion.metrics.benefit import Benefit, median_speed, per_million
 from acc_fusion.metrics.stats import wilson_interval
 from acc_fusion.truth.driver import DriverConfig
 
@@ -198,12 +198,6 @@ def counterfactual_benefit(
         reduction = avoided / n
         lo, hi = wilson_interval(avoided, n, confidence)
 
-    def median(x: np.ndarray) -> float:
-        return float(np.median(x)) if x.size else np.nan
-
-    def per_million(count: int) -> float:
-        return count / km * 1e6 if km > 0 else np.nan
-
     return Benefit(
         vehicles=n,
         crashes_off=n,
@@ -211,12 +205,12 @@ def counterfactual_benefit(
         reduction=float(reduction),
         reduction_lo=float(lo),
         reduction_hi=float(hi),
-        per_million_km_off=per_million(n),
-        per_million_km_on=per_million(int(crashed.sum())),
+        per_million_km_off=per_million(n, km),
+        per_million_km_on=per_million(int(crashed.sum()), km),
         avoided=avoided,
         mitigated=int((on[crashed] < off[crashed] - 1e-9).sum()),
         introduced=0,
-        impact_speed_off=median(off),
-        impact_speed_on=median(on[crashed]),
+        impact_speed_off=median_speed(off),
+        impact_speed_on=median_speed(on[crashed]),
         confidence=confidence,
     )

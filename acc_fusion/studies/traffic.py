@@ -12,7 +12,7 @@ warnings when FCW is off).  On request (``ssm``) the FCW-off run also compares t
 true TTC with the minTTC of SUMO's SSM device, vehicle by vehicle; the device more than
 doubles that run's time (bundled motorway, 300 s: 19 s without it, 44 s with it).
 :meth:`SumoStudy.benefit` pairs the two runs vehicle by vehicle
-(:mod:`acc_fusion.metrics.benefit`); :meth:`SumoStudy.replayed` replays each crash of the
+(:mod:`acc_fusion.metrics.benefit`); :attr:`SumoStudy.replayed` replays each crash of the
 FCW-off run with each method's warnings (:mod:`acc_fusion.metrics.counterfactual`).
 """
 
@@ -21,6 +21,7 @@ from __future__ import annotations
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -206,6 +207,7 @@ class SumoStudy:
             seed=seed,
         )
 
+    @cached_property
     def replayed(self) -> dict[str, Benefit]:
         """Per method, the crashes of the FCW-off run its warnings would have avoided,
         replayed crash by crash (:mod:`acc_fusion.metrics.counterfactual`; empty when the
@@ -218,7 +220,7 @@ class SumoStudy:
         }
 
     def replayed_table(self) -> Table:
-        """:meth:`replayed` as a table."""
+        """:attr:`replayed` as a table."""
         title = f"Crashes FCW avoids, replayed crash by crash, {self.sumocfg.name}"
         note = (
             "pairs: the crashes of the FCW-off run, each replayed with the method's warnings "
@@ -226,7 +228,7 @@ class SumoStudy:
             "no crash introduced behind a braking driver); reduction = share avoided, 95% "
             "Wilson interval; impact speed: median closing speed at contact"
         )
-        return benefit_table(title, self.replayed(), note=note)
+        return benefit_table(title, self.replayed, note=note)
 
     @staticmethod
     def _drive(run: SumoRun) -> str:
