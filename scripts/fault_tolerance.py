@@ -10,8 +10,10 @@ faulty sensor (median over the runs that detect it) and the fraction of runs tha
 during the fault, where detected means isolated (``I``), R adapted to a noise burst (``N``)
 or silent for ``dropout_time`` (``D``), or a report beyond the gate (``G``, a spike;
 ``detected_by`` lists what fired); on healthy data,
-the false-isolation and false-adaptation rates per pair-hour.  The last line
-is ``worst_ratio_to_bound=<x>`` (a fault-tolerant federated filter has x <= 1).
+the false-isolation and false-adaptation rates per pair-hour.  Then the alerts under each
+fault, and a lasting radar bias with and without its accommodation
+(:func:`acc_fusion.studies.estimation.lasting_bias_table`).  The last line is
+``worst_ratio_to_bound=<x>`` (a fault-tolerant federated filter has x <= 1).
 
     python scripts/fault_tolerance.py --runs 100 --seed 0 --plot out/fault_tolerance.png
     python scripts/fault_tolerance.py --quick
@@ -32,7 +34,7 @@ from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.sim.estimation import run_estimation
-from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source
+from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source, lasting_bias_table
 
 #: Ratio to the healthy RMSE a fault-tolerant method stays below (the issue's bound).
 TOLERATED_RATIO = 1.5
@@ -255,6 +257,8 @@ def main(argv: list[str] | None = None) -> None:
     print(table.format())
     print()
     print(alert_table(runs, args.seed).format())
+    print()
+    print(lasting_bias_table(runs).format())
     if args.plot:
         plot(table, args.plot)
         print(f"plot written to {args.plot}")

@@ -12,8 +12,7 @@ from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
-from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source
-from acc_fusion.truth.frame import LinearGaussianSource
+from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source, lasting_bias
 
 N_RUNS, ONSET, DT = 200, 3.0, 0.05
 SENSOR_RATES = pytest.mark.parametrize(
@@ -164,32 +163,13 @@ def test_a_new_vehicle_forgets_the_frozen_verdict_but_a_new_target_keeps_it():
     assert est.fdi.frozen[~half, 0].all()
 
 
-def bias_trace(bias_end: float, reports: int, steps: int = 600):
-    """Car following at 25 ± 3 m (slow relative motion, so the gap stays in the camera's
-    range), 200 runs, the radar biased by +5 m from 3 s to ``bias_end``: ``(est, errors)``,
-    the estimator at the end and the fused gap error ``(steps, N)``."""
-    fdi = FDIConfig(bias_reports=reports)
-    cfg = FusionConfig(method="federated", filter=FOLLOWING_FILTER, fdi=fdi)
-    est = make_estimator(cfg, SENSOR_NAMES, N_RUNS)
-    src = LinearGaussianSource(
-        N_RUNS, dt=DT, jerk_std=0.05, x0=(25.0, 0.0, 0.0), x0_std=(3.0, 0.05, 0.0), seed=4
-    )
-    sensors = make_sensors(5, radar_faults=(Fault("bias", 3.0, bias_end, magnitude=5.0),))
-    frame, errors = src.frame(), []
-    for _ in range(steps):
-        e = est.step([s.measure(frame) for s in sensors], frame.leader_id)
-        errors.append(e.x[:, 0] - frame.gap)
-        frame = src.advance()
-    return est, np.array(errors)
-
-
 def test_a_lasting_radar_bias_is_estimated_removed_and_the_radar_rejoins():
-    est, errors = bias_trace(np.inf, FDIConfig().bias_reports)
+    est, errors = lasting_bias(N_RUNS, 4, np.inf, FDIConfig().bias_reports)
     back = est.fdi.bias_corrected[:, 0] & ~est.fdi.isolated[:, 0]
     assert back.mean() > 0.6  # most runs have the radar back, corrected, after 30 s
     bias = est.fdi.bias[back, 0]
     assert np.all(np.abs(bias[:, 0] - 5.0) < 0.5) and np.all(np.abs(bias[:, 1]) < 0.1)
-    _, isolated_only = bias_trace(np.inf, 0)
+    _, isolated_only = lasting_bias(N_RUNS, 4, np.inf, 0)
     late = slice(300, 600)  # 15-30 s
     accommodated = np.median(np.abs(errors[late]))
     assert accommodated < 0.75 * np.median(np.abs(isolated_only[late]))
@@ -203,7 +183,7 @@ def test_a_lasting_radar_bias_is_estimated_removed_and_the_radar_rejoins():
 
 
 def test_a_bias_that_ends_is_forgotten_and_the_raw_radar_rejoins():
-    est, _ = bias_trace(20.0, FDIConfig().bias_reports, steps=800)
+    est, _ = lasting_bias(N_RUNS, 4, 20.0, FDIConfig().bias_reports, steps=800)
     assert est.fdi.isolated[:, 0].mean() < 0.03
     corrected = est.fdi.bias_corrected[:, 0]
     assert corrected.mean() < 0.03
