@@ -89,3 +89,38 @@ def test_batched_banks_have_the_models_state_dimension():
     assert Engine("batched").bank(2, 5, STATE_DIM).x.shape == (2, 5, STATE_DIM)
     with pytest.raises(ConfigError, match="dimension 3, got 2"):
         Engine("batched").bank(1, 5, 2)
+
+
+def test_engines_agree_when_the_acceleration_jumps(monkeypatch):
+    """At SUMO's 0.5 s step with a jerk far beyond the filters' model, both sensors often fail
+    the gate together and the prior takes an acceleration jump (:mod:`acc_fusion.fusion.fdi`):
+    the two engines take the same jumps and give the same estimates."""
+    from acc_fusion.fusion.config import FilterConfig
+    from acc_fusion.fusion.federated import FederatedFilter
+    from acc_fusion.truth.frame import LinearGaussianSource
+
+    jumps = []
+    take = FederatedFilter._take_jump
+
+    def counted(self, pairs, var, g):
+        jumps.append(int(pairs.sum()))
+        take(self, pairs, var, g)
+
+    monkeypatch.setattr(FederatedFilter, "_take_jump", counted)
+    runs = {}
+    for engine in ("batched", "filterpy"):
+        cfg = FusionConfig(engine=engine, filter=FilterConfig(dt=0.5, jerk_std=1.0))
+        est = make_estimator(cfg, SENSOR_NAMES, N_PAIRS)
+        sensors = linear_sensors(3)
+        src = LinearGaussianSource(
+            N_PAIRS, dt=0.5, jerk_std=8.0, x0=(40.0, 0.0, 0.0), x0_std=(3.0, 1.0, 1.0), seed=4
+        )
+        frame, runs[engine] = src.frame(), []
+        for _ in range(60):
+            runs[engine].append(est.step([s.measure(frame) for s in sensors], frame.leader_id))
+            frame = src.advance()
+    assert sum(jumps) > 20, "the scenario should make the sensors fail the gate together"
+    for a, b in zip(runs["batched"], runs["filterpy"], strict=True):
+        assert np.array_equal(a.isolated, b.isolated)
+        np.testing.assert_allclose(a.x[a.valid], b.x[a.valid], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(a.p[a.valid], b.p[a.valid], rtol=0, atol=1e-9)

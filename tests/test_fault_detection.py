@@ -76,7 +76,7 @@ def test_two_disagreeing_reports_beyond_the_gate_are_not_a_common_cause():
     z = np.zeros((2, 2, 2))
     z[:, 0] = [30.0, -2.0]  # pair 0: both report the same (the lead braked)
     z[0, 1], z[1, 1] = [0.0, -7.6], [29.4, 8.8]  # pair 1: two unrelated spikes
-    accepted, _, _ = fdi.step(nis, reported, z, r)
+    accepted, _, _, _ = fdi.step(nis, reported, z, r)
     assert accepted[0].all() and not accepted[1].any()
 
 

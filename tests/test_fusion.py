@@ -176,7 +176,7 @@ def test_a_report_beyond_the_gate_is_used_when_another_sensor_confirms_it():
     z[0, :, :] = [30.0, -2.0]  # the radar, beyond its gate in every pair
     z[1, 0] = [30.1, -2.05]  # pair 0: the camera sees the same
     z[1, 1] = [33.0, 0.0]  # pair 1: it does not (a spike or a ghost of the radar)
-    accepted, _, _ = fdi.step(nis, reported, z, r)
+    accepted, _, _, _ = fdi.step(nis, reported, z, r)
     assert accepted[0, 0] and not accepted[1, 0] and not accepted[2, 0]
     assert accepted[:2, 1].all()
     # The confirmed report is no evidence of a fault: it stays out of the window.
@@ -200,8 +200,88 @@ def test_a_report_beyond_the_gate_is_used_when_the_other_sensors_last_report_con
     for k in (1, 2, 3):
         z[0, 0] = [30.0 - 0.5 * k, -10.0]  # pair 0: the lead where the camera put it
         z[0, 1] = [30.0 - 0.5 * k + 5.0, -10.0]  # pair 1: a radar spike of 5 m
-        accepted, _, _ = fdi.step(nis, radar_only, z, r)
+        accepted, _, _, _ = fdi.step(nis, radar_only, z, r)
     assert accepted[0, 0] and not accepted[1, 0]
+
+
+def test_a_stale_confirming_report_allows_for_the_acceleration_meanwhile():
+    """At a 0.5 s step the camera's latest report is a step old: carried forward at its
+    range-rate, it differs from a radar report of a lead that decelerates at 3 m/s² by
+    1.5 m/s.  The cross check allows for an unknown acceleration over the report's age
+    (``accel_std``), so the radar's report is confirmed; a 5 m radar spike still is not;
+    without the allowance the true report is thrown away too."""
+    from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
+
+    accepted = {}
+    for accel_std in (3.0, 1e-6):
+        fdi = WindowedChiSquare(2, 2, FDIConfig(), dt=0.5, accel_std=accel_std)
+        r = np.tile(np.diag([0.0625, 0.0144]), (2, 2, 1, 1))
+        r[1] = np.diag([0.01, 0.01])
+        z = np.zeros((2, 2, 2))
+        z[:, :] = [30.0, -2.0]
+        fdi.step(np.ones((2, 2)), np.ones((2, 2), dtype=bool), z, r)
+        z[0, 0] = [30.0 - 2.0 * 0.5 - 0.5 * 3.0 * 0.25, -3.5]  # the lead, a = -3 m/s²
+        z[0, 1] = z[0, 0] + [5.0, 0.0]  # a radar spike of 5 m
+        radar_only = np.array([[True, False], [True, False]])
+        nis = np.array([[40.0, np.nan], [40.0, np.nan]])
+        accepted[accel_std] = fdi.step(nis, radar_only, z, r)[0][:, 0]
+    assert accepted[3.0].tolist() == [True, False]
+    assert accepted[1e-6].tolist() == [False, False]
+
+
+def test_sensors_failing_the_gate_together_are_taken_for_an_acceleration_jump():
+    """Every sensor beyond the gate, disagreeing with each other: a report that passes
+    against the prior widened by an acceleration jump is used and the pair takes the jump;
+    not when another sensor agrees with the prediction, nor beyond the widened gate."""
+    from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
+
+    fdi = WindowedChiSquare(3, 2, FDIConfig(), dt=0.5)
+    r = np.tile(np.diag([0.0625, 0.0144]), (2, 3, 1, 1))
+    r[1] = np.diag([4.0, 0.25])
+    z = np.zeros((2, 3, 2))
+    z[0, :] = [32.6, -1.4]  # the radar
+    z[1, :] = [38.7, -0.4]  # the camera, far off the radar (no confirmation)
+    reported = np.ones((3, 2), dtype=bool)
+    nis = np.array([[37.0, 46.0], [37.0, 1.0], [37.0, 46.0]])
+    wide = np.array([[2.0, 7.0], [2.0, 1.0], [40.0, 7.0]])
+    accepted, _, _, jump = fdi.step(nis, reported, z, r, wide)
+    assert accepted[0].all() and jump[0]  # pair 0: both used, the prior takes the jump
+    assert accepted[1].tolist() == [False, True] and not jump[1]  # the camera agrees
+    assert accepted[2].tolist() == [False, True] and jump[2]  # the radar is beyond it too
+    fresh = WindowedChiSquare(3, 2, FDIConfig(), dt=0.5)
+    assert not fresh.step(nis, reported, z, r)[0][0].any()  # no widened NIS: no jump
+
+
+@pytest.mark.parametrize("noise_at", ["prediction", "report"])
+def test_a_range_dependent_noise_is_evaluated_where_configured(noise_at):
+    """The camera's R at its predicted gap (``noise_at="prediction"``, the default) or at
+    its own short report: the NIS equals a hand computation with that R."""
+    from acc_fusion.core.motion import MEASUREMENT_MATRIX as H
+    from acc_fusion.fusion.estimators import make_estimator
+    from acc_fusion.sensors.sensor import Measurement
+    from acc_fusion.sensors.spec import infrared_spec, radar_spec
+    from acc_fusion.sensors.suite import SENSOR_NAMES
+
+    specs = [radar_spec(), infrared_spec()]
+    cfg = FusionConfig(method="infrared", noise_at=noise_at)
+    est = make_estimator(cfg, SENSOR_NAMES, 1, specs)
+    ir = specs[1]
+
+    def measure(t, gap):
+        std = float(ir.range_noise_std(gap))
+        r = np.diag([std**2, ir.range_rate_std**2])[None]
+        no = np.zeros(1, bool)
+        off = Measurement(t, "radar", np.full((1, 2), np.nan), np.eye(2)[None], no, no)
+        on = Measurement(t, "infrared", np.array([[gap, 0.0]]), r, np.ones(1, bool), no)
+        return [off, on]
+
+    first = est.step(measure(0.0, 60.0), np.array([1]))
+    x, p = est.f @ first.x[0], est.f @ first.p[0] @ est.f.T + est.q
+    second = est.step(measure(0.05, 45.0), np.array([1]))
+    at = x[0] if noise_at == "prediction" else 45.0
+    s = H @ p @ H.T + np.diag([float(ir.range_noise_std(at)) ** 2, ir.range_rate_std**2])
+    y = np.array([45.0, 0.0]) - H @ x
+    assert second.nis[0, 1] == pytest.approx(y @ np.linalg.solve(s, y), rel=1e-9)
 
 
 def test_a_lead_braking_to_a_stop_keeps_both_sensors_in():
@@ -217,3 +297,11 @@ def test_a_lead_braking_to_a_stop_keeps_both_sensors_in():
     seen = healthy_isolations(cfg)
     assert seen["isolated"] == 0
     assert seen["fed"] <= 1.01 * seen["cen"]
+
+
+def test_an_unknown_noise_point_is_a_one_line_error():
+    from acc_fusion.core.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="fusion.noise_at") as err:
+        FusionConfig(noise_at="truth")
+    assert "\n" not in str(err.value)

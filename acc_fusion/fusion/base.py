@@ -25,8 +25,10 @@ from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.kernels import (
     _gather,
     _lose,
+    _noise_at_prediction,
 )
 from acc_fusion.sensors.sensor import Measurement
+from acc_fusion.sensors.spec import SensorSpec
 
 
 @dataclass(frozen=True)
@@ -66,10 +68,22 @@ class Estimator(PairState, ABC):
 
     _PAIR_AXES = {"initialised": 0, "_target": 0, "_last": 0, "_nis": 0}
 
-    def __init__(self, sensors: Sequence[str], n_pairs: int, config: FusionConfig) -> None:
+    def __init__(
+        self,
+        sensors: Sequence[str],
+        n_pairs: int,
+        config: FusionConfig,
+        specs: Sequence[SensorSpec] | None = None,
+    ) -> None:
         if n_pairs < 1:
             raise ConfigError(f"n_pairs must be >= 1, got {n_pairs}")
         self.sensors = tuple(sensors)
+        # Each sensor's range noise (sigma_0, q), where it is re-evaluated at the prediction.
+        self._noise = (
+            np.array([[sp.range_std, sp.range_std_quadratic] for sp in specs])
+            if specs is not None and config.noise_at == "prediction"
+            else None
+        )
         self.n_pairs = int(n_pairs)
         self.config = config
         self.engine = Engine(config.engine)
@@ -154,6 +168,12 @@ class Estimator(PairState, ABC):
         limit = self._coast_limit
         if _lose(self.initialised, self._target, target_id, self._last, t, limit, lost):
             self._drop(lost)
+        if self._noise is not None:
+            x, _ = self._state()
+            u = np.empty(0) if ego_accel is None else ego_accel
+            _noise_at_prediction(
+                np.asarray(x), self.f[0], self.b[0], u, self.initialised, valid, self._noise, r
+            )
         self._nis[:] = np.nan
         self._t = t
         self._online = np.array([bool(getattr(m, "online", True)) for m in measurements])

@@ -39,9 +39,9 @@ class _OneFilter(Estimator):
 class SingleSensorFilter(_OneFilter):
     """One sensor alone: its local Kalman filter (kong2011 eqs. 1-4)."""
 
-    def __init__(self, sensors, n_pairs, config, sensor: str) -> None:
+    def __init__(self, sensors, n_pairs, config, sensor: str, specs=None) -> None:
         self.index = list(sensors).index(sensor)
-        super().__init__(sensors, n_pairs, config)
+        super().__init__(sensors, n_pairs, config, specs)
 
     def _advance(self, z, r, valid):
         j = self.index
@@ -60,9 +60,9 @@ class SingleSensorFilter(_OneFilter):
 class CentralizedFilter(_OneFilter):
     """One Kalman filter updated by every sensor, sequentially or stacked."""
 
-    def __init__(self, sensors, n_pairs, config, stacked: bool = False) -> None:
+    def __init__(self, sensors, n_pairs, config, stacked: bool = False, specs=None) -> None:
         self.stacked = stacked
-        super().__init__(sensors, n_pairs, config)
+        super().__init__(sensors, n_pairs, config, specs)
 
     def _advance(self, z, r, valid):
         self.bank.predict(self.f, self.q, 1.0, self.initialised[None], self.b, self._u)

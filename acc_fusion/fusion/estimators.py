@@ -68,8 +68,9 @@ def make_estimator(
     """Build the estimator named by ``config.method`` (or by a method name with defaults).
 
     ``specs`` (the sensors' :class:`~acc_fusion.sensors.spec.SensorSpec`, in the order of
-    ``sensors``) is needed by the constant-gain filter (``local="steady"``) and enables the
-    federated filter's track confirmation (each sensor's range interval).
+    ``sensors``) is needed by the constant-gain filter (``local="steady"``), enables the
+    federated filter's track confirmation (each sensor's range interval) and lets every
+    filter evaluate a range-dependent noise at the prediction (``config.noise_at``).
 
     >>> est = make_estimator("federated", ("radar", "infrared"), n_pairs=4)
     >>> type(est).__name__
@@ -89,7 +90,8 @@ def make_estimator(
             raise ConfigError("fusion.local='steady' needs the sensors' specs (specs=...)")
         return SteadyStateFilter(sensors, n_pairs, config, spec=specs[sensors.index(method)])
     if method in sensors:
-        return SingleSensorFilter(sensors, n_pairs, config, sensor=method)
+        return SingleSensorFilter(sensors, n_pairs, config, sensor=method, specs=specs)
     if method.startswith("centralized"):
-        return CentralizedFilter(sensors, n_pairs, config, stacked=method.endswith("stacked"))
+        stacked = method.endswith("stacked")
+        return CentralizedFilter(sensors, n_pairs, config, stacked=stacked, specs=specs)
     return FederatedFilter(sensors, n_pairs, config, plain=method == "plain", specs=specs)

@@ -22,6 +22,7 @@ from acc_fusion.fusion.kernels import (
     _drop_pairs,
     _federated_step,
     _share_pairs,
+    jump_vector,
 )
 
 
@@ -55,7 +56,7 @@ class FederatedFilter(Estimator):
             if isinstance(b, str)
             else np.array(b, dtype=float)
         )
-        super().__init__(sensors, n_pairs, config)
+        super().__init__(sensors, n_pairs, config, specs)
 
     def _reset_state(self):
         n, s = self.n_pairs, self.n_sensors
@@ -64,7 +65,12 @@ class FederatedFilter(Estimator):
         self.beta = np.repeat(self._beta0[:, None], n, axis=1)
         self._infl: np.ndarray | None = None  # 1 / beta, recomputed after beta changes
         fdi = None if self.plain else self.config.fdi
-        self.fdi = None if fdi is None else WindowedChiSquare(n, s, fdi, self.config.filter.dt)
+        fc = self.config.filter
+        self.fdi = (
+            None
+            if fdi is None
+            else WindowedChiSquare(n, s, fdi, fc.dt, accel_std=fc.init_accel_std)
+        )
         self._confirm = fdi is not None and fdi.confirm_tracks and self._coverage is not None
         self._seen = np.zeros((s, n), dtype=bool)
         self._needed = np.zeros((s, n), dtype=bool)
@@ -184,10 +190,21 @@ class FederatedFilter(Estimator):
         )
         self._nis[:] = nis.T
         if self.fdi is not None:
-            accepted, rejoined, manoeuvre = self.fdi.step(nis.T, reporting.T, z, r)
+            fc = self.config.filter
+            var, g = fc.init_accel_std**2, jump_vector(fc.dt)
+            beyond = reporting & (nis > self.fdi.gate)
+            pw = pm + np.outer(var * g, g)
+            wide = np.stack(
+                [self.engine.nis(xm, pw, z[s], r[s], self.h, self._rows(beyond[s])) for s in s_all]
+            )
+            accepted, rejoined, manoeuvre, jumped = self.fdi.step(
+                nis.T, reporting.T, z, r, np.where(beyond, wide, np.inf).T
+            )
             accepted, rejoined = accepted.T, rejoined.T
             if manoeuvre.any():
                 self._take_manoeuvre(manoeuvre)
+            if jumped.any():
+                self._take_jump(jumped, var, g)
         else:
             accepted, rejoined = reporting, np.zeros_like(reporting)
         for s in s_all:
@@ -240,6 +257,21 @@ class FederatedFilter(Estimator):
         for s in range(self.n_sensors):
             pl = np.array(self.locals.p[s])
             pl[pairs, -1, -1] += var * infl[s][pairs]
+            self.locals.assign(s, pairs, np.array(self.locals.x[s]), pl)
+
+    def _take_jump(self, pairs: np.ndarray, var: float, g: np.ndarray) -> None:
+        r"""Add :math:`\sigma_a^2 g g^\top` (``var``, ``g``: an acceleration jump during the
+        step, :mod:`acc_fusion.fusion.fdi`) to the priors of the master and of every local
+        filter of ``pairs (N,)`` (the locals' times their inflation), in
+        :func:`_federated_step`'s order of operations."""
+        pm = np.array(self.master.p[0])
+        pm[pairs] += np.outer(var * g, g)
+        self.master.assign(0, pairs, np.array(self.master.x[0]), pm)
+        infl = self._inflation()
+        for s in range(self.n_sensors):
+            pl = np.array(self.locals.p[s])
+            scale = var * infl[s][pairs]
+            pl[pairs] += (scale[:, None] * g)[:, :, None] * g
             self.locals.assign(s, pairs, np.array(self.locals.x[s]), pl)
 
     def _advance_batched(self, z, r, valid):

@@ -63,6 +63,27 @@ def _lose(initialised, target, target_id, last, t, coast_limit, lost):  # pragma
 
 
 @njit(cache=True)
+def _noise_at_prediction(x, f0, b0, u, initialised, valid, noise, r):  # pragma: no cover
+    """Re-evaluate the range variance of every valid report of an initialised pair at the
+    pair's predicted range, in place: ``r[s, k, 0, 0] = (noise[s, 0] + noise[s, 1] ·
+    ĝ²)²`` with ``ĝ = max(0, f0 · x[k] + b0 · u[k])`` (``u`` empty: no input), for the
+    sensors whose range noise grows with range (``noise[s, 1] > 0``; the rule and its source:
+    :class:`~acc_fusion.fusion.config.FusionConfig`, ``noise_at``)."""
+    for s in range(noise.shape[0]):
+        if noise[s, 1] <= 0.0:
+            continue
+        for k in range(initialised.size):
+            if not (initialised[k] and valid[s, k]):
+                continue
+            g = f0[0] * x[k, 0] + f0[1] * x[k, 1] + f0[2] * x[k, 2]
+            if u.size:
+                g += b0 * u[k]
+            g = max(g, 0.0)
+            std = noise[s, 0] + noise[s, 1] * g * g
+            r[s, k, 0, 0] = std * std
+
+
+@njit(cache=True)
 def _confirmed(
     needed, seen, online_at, t, coast_limit, x, lo, hi, isolated, initialised, out
 ):  # pragma: no cover - compiled
@@ -96,7 +117,7 @@ _NO_FDI = (
 )  # fmt: skip
 
 
-_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0))
+_NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0))
 
 
 @njit(cache=True)
@@ -133,6 +154,9 @@ def _federated_step(
     accepted = np.zeros((n_pairs, n_s), dtype=np.bool_)
     rejoined = np.zeros((n_pairs, n_s), dtype=np.bool_)
     manoeuvre = np.zeros(n_pairs, dtype=np.bool_)
+    jump = np.zeros(n_pairs, dtype=np.bool_)
+    wide = np.full((n_pairs, n_s), np.inf)
+    g, pw = jump_vector(var[3]), np.empty((n, n))
     active = np.zeros((n_s, n_pairs), dtype=np.bool_)
     any_rejoined = False
     for k in range(n_pairs):
@@ -173,16 +197,25 @@ def _federated_step(
                 nis[k, s] = nis_one(xm[k], pm[k], h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
             else:
                 nis[k, s] = np.nan
+            if has_fdi and reporting[k, s] and nis[k, s] > gate:  # against a jump's prior
+                _widen_one(pm[k], g, accel_var, pw)
+                wide[k, s] = nis_one(xm[k], pw, h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
         if has_fdi:
             window_one(k, nis, reporting, z, r, gate, clip, threshold, common_steps,
                        manoeuvre_first, var, buf, total, count, pos, isolated, verdict,
-                       suspect, last, frozen, age, accepted, rejoined, manoeuvre)  # fmt: skip
+                       suspect, last, frozen, age, accepted, rejoined, manoeuvre, wide,
+                       jump)  # fmt: skip
         else:
             accepted[k] = reporting[k]
         if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
             pm[k, n - 1, n - 1] += accel_var
             for s in range(n_s):
                 pl[s, k, n - 1, n - 1] += accel_var * _inflation_one(beta[s, k], inflate)
+        if jump[k]:  # it jumped during the step: the priors take it
+            _widen_one(pm[k], g, accel_var, pm[k])
+            for s in range(n_s):
+                scale = accel_var * _inflation_one(beta[s, k], inflate)
+                _widen_one(pl[s, k], g, scale, pl[s, k])
         for s in range(n_s):
             if accepted[k, s]:
                 update_one(xl[s, k], pl[s, k], h, z[s, k], r[s, k], m, pht, kg, s_mat, si,
@@ -222,6 +255,21 @@ def _federated_step(
             initialised[k] = False
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
                       verdict, suspect, last, frozen)  # fmt: skip
+
+
+@njit(cache=True)
+def jump_vector(dt):  # pragma: no cover - compiled
+    """:math:`g = [T^2/2, T, 1]^\top`: what a jump of the relative acceleration at the start
+    of a step of ``dt`` changes (:mod:`acc_fusion.fusion.fdi`, "Acceleration jump")."""
+    return np.array([0.5 * dt * dt, dt, 1.0])
+
+
+@njit(cache=True, inline="always")
+def _widen_one(p, g, var, out):  # pragma: no cover - compiled
+    """``out = p + var · g gᵀ`` (``out`` may be ``p``)."""
+    for a in range(p.shape[0]):
+        for b in range(p.shape[1]):
+            out[a, b] = p[a, b] + var * g[a] * g[b]
 
 
 @njit(cache=True, inline="always")

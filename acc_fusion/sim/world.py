@@ -126,7 +126,9 @@ class WorldPerception(PairState):
         self._gyro = np.random.default_rng(s_gyro)
         self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / config.dt))
         filters = replace(config.fusion.filter, dt=config.dt, ego_accel_std=ACCEL_STD)
-        fusion = replace(config.fusion, filter=filters)
+        # A fused object's R is the converted 2-D covariance of its detection, not the 1-D
+        # spec's range law: it is used as reported.
+        fusion = replace(config.fusion, filter=filters, noise_at="report")
         pairs = n * self.slots
         specs = config.sensor_specs()
         self.estimators = {
