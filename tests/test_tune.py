@@ -60,3 +60,28 @@ def test_grid_points_and_pareto_front():
     points = [point(0.5, 10.0), point(0.3, 2.0), point(0.2, 5.0), point(0.5, 12.0)]
     mark_pareto(points)
     assert [p.pareto for p in points] == [True, True, False, False]
+
+
+def test_the_recording_is_the_traffic_whose_classes_acc_fusion_sumo_prints():
+    """With distracted drivers (the default of the traffic commands) the recording is the
+    FCW-off closed loop of ``acc-fusion sumo``: the rule on it fires as that run's oracle."""
+    from dataclasses import replace
+
+    from acc_fusion.cli.common import traffic_config, traffic_sim_config
+    from acc_fusion.cli.main import build_parser
+    from acc_fusion.studies.traffic import _run
+    from acc_fusion.studies.tune import record_sumo, rule_on_truth
+    from acc_fusion.truth.sumo.nets import resolve_sumocfg
+
+    args = build_parser().parse_args(["sumo", "--net", "motorway", "--end", "60"])
+    sumo = traffic_config(args, resolve_sumocfg("motorway", None), seed=0)
+    sim = traffic_sim_config(args)
+    assert sim.driver.distraction.rate > 0
+    off = _run(sumo, replace(sim, drive=sim.methods[-1]), False, False, False)
+    oracle = off.summaries[sim.methods[-1]]
+    recording = record_sumo(sumo, sim)
+    rule = rule_on_truth(recording, sim)
+    assert recording.distraction == sim.driver.distraction.rate
+    assert rule.warnings == oracle.threats > 0
+    assert rule.relevant == oracle.relevant > 0
+    assert rule.km == pytest.approx(oracle.km)

@@ -12,6 +12,7 @@ from acc_fusion.cli.common import (
     positive_float,
     positive_int,
     traffic_config,
+    traffic_sim_config,
 )
 from acc_fusion.core.config import load_yaml
 from acc_fusion.core.errors import ConfigError
@@ -75,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     out = output_dir(args.out) if args.out else None
     path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
     seed = int(base.get("seed", 0))
-    recording = record_sumo(traffic_config(args, path, seed=seed), progress=True)
+    traffic = traffic_sim_config(args)
+    recording = record_sumo(traffic_config(args, path, seed=seed), traffic, progress=True)
     recording.name = path.name
     points = tune(configs, recording, trials=args.trials, progress=True)
     table = tune_table(points, recording)
