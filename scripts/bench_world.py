@@ -1,4 +1,4 @@
-"""Benchmark: the cost of the 2-D world (object truth from SUMO) on SUMO's own A10KW scenario.
+r"""Benchmark: the cost of the 2-D world (object truth from SUMO) on SUMO's own A10KW scenario.
 
 Runs ``<SUMO_HOME>/tools/game/A10KW.sumocfg`` (an OpenStreetMap motorway interchange scenario
 of SUMO's game, shipped in the eclipse-sumo wheel: 0.5 s steps, about 470 vehicles at 300 s,
@@ -28,6 +28,13 @@ timed part (memory must stay flat: a run may grow only as bare SUMO does, with t
 vehicles), the pipeline's time per stage (each stage's methods timed in its process:
 :data:`STAGES`), ``objects_ratio=<objects wall time / bare wall time>`` and as its last line
 ``overhead_ratio=<pipeline wall time / bare wall time>``.
+
+Memory against traffic: the bare and pipeline runs also sample their resident memory and the
+number of vehicles (bare: SUMO's; pipeline: the equipped egos) every ``--sample`` simulated
+seconds (60) of the timed part, and fit :math:`\mathrm{RSS} = a + b\,n + c\,t` by least
+squares (:func:`memory_fit`).  The slope :math:`c` in MB per simulated hour, with its 95 %
+interval, is the growth that the traffic's size does not explain: a leak shows as a
+pipeline slope above bare SUMO's.
 
     python scripts/bench_world.py               # 300 s simulated
     python scripts/bench_world.py --end 1800 --capacity 2048  # the half hour: memory check
@@ -127,7 +134,7 @@ def _staged(factory: Callable, config, end: float, warmup: float) -> dict:
             "rss_start": rss_start, "rss_end": rss_end}  # fmt: skip
 
 
-def _pipeline(config, end: float, warmup: float) -> dict:
+def _pipeline(config, end: float, warmup: float, every: float) -> dict:
     """``simulate_world`` on the SUMO source over the warm-up, then afresh, timed, to the
     end, with the time of every stage of :data:`STAGES`."""
     from acc_fusion.sim.closed_loop import SimConfig
@@ -142,16 +149,28 @@ def _pipeline(config, end: float, warmup: float) -> dict:
         def done(self) -> bool:
             return self.source.done or self.source.t >= self.source.begin + warmup - 1e-9
 
+    class Sampled(SumoWorld):
+        """The source, sampling memory and egos every ``every`` simulated seconds."""
+
+        samples: list[tuple[float, int, float]] = []
+
+        def advance(self) -> None:
+            super().advance()
+            src = self.source
+            if not self.samples or src.t >= self.samples[-1][0] + every - 1e-9:
+                self.samples.append((src.t, int(src.active.sum()), _rss_mb()[0]))
+
     with SumoSource(config) as source:
         sim = SimConfig(runs=1, dt=source.dt)
         simulate_world(sim, source=Until(source))
         spent = _time_stages()
         rss_start, t0 = _rss_mb(), time.perf_counter()
-        result = simulate_world(sim, source=SumoWorld(source))
+        result = simulate_world(sim, source=Sampled(source))
         elapsed = time.perf_counter() - t0
         rss_end = _rss_mb()
     return {"wall": elapsed, "steps": result.steps, "egos": 0, "objects": 0,
-            "rss_start": rss_start, "rss_end": rss_end, "stages": spent}  # fmt: skip
+            "rss_start": rss_start, "rss_end": rss_end, "stages": spent,
+            "samples": Sampled.samples}  # fmt: skip
 
 
 def _rss_mb() -> tuple[float, float]:
@@ -164,15 +183,18 @@ def _rss_mb() -> tuple[float, float]:
         return peak, peak
 
 
-def _run(name: str, sumocfg: str, end: float, warmup: float, seed: int, capacity: int) -> dict:
-    """One run of :data:`RUNS`."""
+def _run(
+    name: str, sumocfg: str, end: float, warmup: float, seed: int, capacity: int, every: float
+) -> dict:
+    """One run of :data:`RUNS` (``every``: the memory sampling period of those that sample)."""
     from acc_fusion.truth.sumo.config import SumoConfig
 
     config = SumoConfig(sumocfg=sumocfg, end=end, seed=seed, capacity=capacity, extra_args=QUIET)
-    return RUNS[name](config, end, warmup)
+    run = RUNS[name]
+    return run(config, end, warmup, every) if name in SAMPLED else run(config, end, warmup)
 
 
-def _bare(config, end: float, warmup: float) -> dict:
+def _bare(config, end: float, warmup: float, every: float) -> dict:
     """SUMO alone on the source's command line, warm-up and timed part as :func:`_staged`."""
     import libsumo
 
@@ -183,14 +205,37 @@ def _bare(config, end: float, warmup: float) -> dict:
         while libsumo.simulation.getTime() < warmup - 1e-9:
             libsumo.simulationStep()
         rss_start, steps, t0 = _rss_mb(), 0, time.perf_counter()
+        samples: list[tuple[float, int, float]] = []
         while libsumo.simulation.getTime() < end - 1e-9:
             libsumo.simulationStep()
             steps += 1
+            t = libsumo.simulation.getTime()
+            if not samples or t >= samples[-1][0] + every - 1e-9:
+                samples.append((t, libsumo.vehicle.getIDCount(), _rss_mb()[0]))
         elapsed = time.perf_counter() - t0
     finally:
         libsumo.close()
     return {"wall": elapsed, "steps": steps, "egos": 0, "objects": 0,
-            "rss_start": rss_start, "rss_end": _rss_mb()}  # fmt: skip
+            "rss_start": rss_start, "rss_end": _rss_mb(), "samples": samples}  # fmt: skip
+
+
+def memory_fit(samples: list[tuple[float, int, float]]) -> tuple[float, float, float]:
+    r"""Least squares :math:`\mathrm{RSS} = a + b\,n + c\,t` over ``samples`` of (simulated
+    time [s], vehicles n, RSS [MB]): ``(b [MB per vehicle], c [MB per simulated hour], the
+    half-width of c's 95 % interval)`` (NaN with fewer than four samples)."""
+    import numpy as np
+    from scipy.stats import t as student
+
+    data = np.array(samples, dtype=float)
+    if len(data) < 4:
+        return float("nan"), float("nan"), float("nan")
+    design = np.column_stack([np.ones(len(data)), data[:, 1], data[:, 0] / 3600.0])
+    coef, *_ = np.linalg.lstsq(design, data[:, 2], rcond=None)
+    dof = len(data) - 3
+    resid = data[:, 2] - design @ coef
+    cov = np.linalg.pinv(design.T @ design) * float(resid @ resid) / dof
+    half = float(student.ppf(0.975, dof) * np.sqrt(cov[2, 2]))
+    return float(coef[1]), float(coef[2]), half
 
 
 #: Per run: its function of (SUMO config, end, warm-up) giving its timed figures.
@@ -200,6 +245,9 @@ RUNS: dict[str, Callable[..., dict]] = {
     "objects": functools.partial(_staged, _object_stages),
     "pipeline": _pipeline,
 }
+
+#: The runs that sample memory against the traffic.
+SAMPLED = ("bare", "pipeline")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -211,7 +259,12 @@ def main(argv: list[str] | None = None) -> None:
         "--capacity", type=int, default=1024, help="slots E (1024; 2048 for --end 1800)"
     )
     parser.add_argument("--sumocfg", help="scenario (default: SUMO's tools/game/A10KW.sumocfg)")
+    parser.add_argument(
+        "--sample", type=float, default=60.0, help="memory sampling period, simulated s (60)"
+    )
     args = parser.parse_args(argv)
+    if args.sample <= 0:
+        parser.error(f"--sample must be positive, got {args.sample}")
     if not 0 <= args.warmup < args.end:
         parser.error(f"need 0 <= --warmup < --end, got {args.warmup} and {args.end}")
     if args.capacity < 1:
@@ -225,8 +278,9 @@ def main(argv: list[str] | None = None) -> None:
     for name in RUNS:
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
             job = pool.submit(
-                _run, name, args.sumocfg, args.end, args.warmup, args.seed, args.capacity
-            )
+                _run, name, args.sumocfg, args.end, args.warmup, args.seed, args.capacity,
+                args.sample,
+            )  # fmt: skip
             res[name] = job.result()
     bare = res["bare"]
     print(f"scenario {args.sumocfg}, {args.warmup:g} s warm-up, timed to {args.end:g} s, "
@@ -245,6 +299,13 @@ def main(argv: list[str] | None = None) -> None:
     for stage, sec in [*spent.items(), ("other", pipe["wall"] - sum(spent.values()))]:
         print(f"  {stage:12s} {sec:7.2f} s  {1e3 * sec / pipe['steps']:6.2f} ms/step  "
               f"{sec / pipe['wall']:6.1%}")  # fmt: skip
+    print("memory against traffic: RSS = a + b·vehicles + c·t (least squares over the samples)")
+    for name in SAMPLED:
+        samples = res[name]["samples"]
+        b, c, half = memory_fit(samples)
+        n = [v for _, v, _ in samples]
+        print(f"  {name:8s} {len(samples)} samples, {min(n)}-{max(n)} vehicles: "
+              f"b {1e3 * b:.1f} kB/vehicle, c {c:+.1f} ± {half:.1f} MB/h")  # fmt: skip
     print(f"source_ratio={res['source']['wall'] / bare['wall']:.3f}")
     print(f"objects_ratio={obj['wall'] / bare['wall']:.3f}")
     print(f"overhead_ratio={pipe['wall'] / bare['wall']:.3f}")

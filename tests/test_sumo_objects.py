@@ -280,11 +280,15 @@ def test_the_world_benchmark_runs_and_ends_with_the_overhead_ratio():
     motorway = str(bundled_nets()["motorway"])
     cmd = [sys.executable, str(root / "scripts" / "bench_world.py"), "--sumocfg", motorway]
     cmd += ["--end", "40", "--warmup", "35"]
-    out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True, env=env)
-    out = out.stdout
+    out = subprocess.run(
+        [*cmd, "--sample", "1"], capture_output=True, text=True, timeout=300, check=True, env=env
+    ).stdout
     lines = out.strip().splitlines()
     assert "50 steps" in lines[0] and lines[-1].startswith("overhead_ratio=")
     assert float(lines[-1].split("=")[1]) > 1.0 and "objects per ego" in out
+    # Memory against traffic: one sample per simulated second, fitted (finite figures).
+    fit = [line for line in lines if line.strip().startswith("pipeline ") and "MB/h" in line]
+    assert len(fit) == 1 and "5 samples" in fit[0] and "nan" not in fit[0]
     bad = subprocess.run([*cmd[:2], "--warmup", "50", "--end", "40"], capture_output=True,
                          text=True, timeout=60, env=env)  # fmt: skip
     assert bad.returncode == 2 and "--warmup < --end" in bad.stderr
