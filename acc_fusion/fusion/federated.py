@@ -190,16 +190,15 @@ class FederatedFilter(Estimator):
         )
         self._nis[:] = nis.T
         if self.fdi is not None:
-            fc = self.config.filter
-            var, g = fc.init_accel_std**2, jump_vector(fc.dt)
+            var, g = self.fdi.accel_var, jump_vector(self.fdi.dt)
             beyond = reporting & (nis > self.fdi.gate)
-            pw = pm + np.outer(var * g, g)
-            wide = np.stack(
-                [self.engine.nis(xm, pw, z[s], r[s], self.h, self._rows(beyond[s])) for s in s_all]
-            )
-            accepted, rejoined, manoeuvre, jumped = self.fdi.step(
-                nis.T, reporting.T, z, r, np.where(beyond, wide, np.inf).T
-            )
+            wide = np.full(nis.shape, np.inf)  # only reports beyond the gate are tested wide
+            if beyond.any():
+                pw = pm + np.outer(var * g, g)
+                for s in s_all:
+                    wide[s] = self.engine.nis(xm, pw, z[s], r[s], self.h, self._rows(beyond[s]))
+                wide[~beyond] = np.inf
+            accepted, rejoined, manoeuvre, jumped = self.fdi.step(nis.T, reporting.T, z, r, wide.T)
             accepted, rejoined = accepted.T, rejoined.T
             if manoeuvre.any():
                 self._take_manoeuvre(manoeuvre)
