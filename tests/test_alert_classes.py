@@ -29,11 +29,15 @@ def follow(gap0, v0, lead_speed, duration=12.0):
     return t, gap, np.full(t.size, v0), vl, al
 
 
-def classify(t, gap, v, vl, al, system=None, leader=None):
-    """Run one pair through the oracle (the default rule on truth) and the metrics; the system
-    is the oracle itself (perfect sensing) unless given."""
+#: The stopping-distance rule (the default before the calibration): it fires in close following.
+STOPPING = WarningConfig(model="stopping_distance")
+
+
+def classify(t, gap, v, vl, al, system=None, leader=None, warning=None):
+    """Run one pair through the oracle (the rule ``warning``, default: the default rule, on
+    truth) and the metrics; the system is the oracle itself (perfect sensing) unless given."""
     has = np.ones(t.size, bool) if leader is None else leader
-    oracle = WarningLogic(WarningConfig(), 1, DT)
+    oracle = WarningLogic(warning or WarningConfig(), 1, DT)
     metrics = FCWMetrics(1, DT, tolerance=1.0, warn_level=2)
     cfg = AlertClassConfig()
     relevant = crash_relevant(cfg, has, np.where(has, gap, 1.0), v, vl, al)
@@ -55,8 +59,9 @@ def classify(t, gap, v, vl, al, system=None, leader=None):
 def test_steady_following_at_one_second_headway_is_never_crash_relevant():
     t, gap, v, vl, al = follow(30.0, 30.0, lambda x: 30.0)
     s, relevant = classify(t, gap, v, vl, al)
-    assert not relevant.any() and s.relevant == 0
-    # The default rule fires on it in truth: a nuisance alert, not a crash-relevant one.
+    assert not relevant.any() and s.relevant == 0 and s.warnings == 0  # the default is quiet
+    # The stopping-distance rule fires on it in truth: a nuisance alert, not a crash-relevant one.
+    s, _ = classify(t, gap, v, vl, al, warning=STOPPING)
     assert s.warnings == 1 and s.nuisance == 1 and s.crash_relevant == s.sensing_false == 0
 
 
@@ -86,7 +91,8 @@ def test_a_faster_car_cutting_in_close_ahead_is_nuisance():
     leader = t >= 3.0
     gap = np.where(leader, gap + 3.0 * 30.0 - 3.0 * 33.0, 0.0)  # 8 m at the cut-in
     s, relevant = classify(t, gap, v, vl, al, leader=leader)
-    assert not relevant.any()
+    assert not relevant.any() and s.warnings == 0  # the default sees the gap opening
+    s, _ = classify(t, gap, v, vl, al, leader=leader, warning=STOPPING)
     assert s.nuisance == s.warnings == 1 and s.crash_relevant == s.sensing_false == 0
 
 

@@ -89,11 +89,14 @@ def test_ttc_policy_thresholds():
 
 
 def test_warning_logic_policy_holds_its_alert_by_hysteresis_and_resets():
-    d_c, d_i = distances("stopping_distance")
-    policy = WarningLogicPolicy(WarningConfig(hysteresis=0.1, min_on_time=0.0))
+    config = WarningConfig(hysteresis=0.1, min_on_time=0.0)
+    d_c, d_i = distances(config.model)
+    assert d_i * 1.05 < d_c
+    policy = WarningLogicPolicy(config)
     assert policy(make_obs(gap=d_i - 0.5)) == 2
     assert policy(make_obs(gap=d_i * 1.05)) == 2  # inside the hysteresis band: still on
-    assert SafetyDistancePolicy()(make_obs(gap=d_i * 1.05)) == 1  # the stateless rule drops
+    stateless = SafetyDistancePolicy(config.model)
+    assert stateless(make_obs(gap=d_i * 1.05)) == 1  # the stateless rule drops
     policy.reset()
     assert policy(make_obs(gap=d_i * 1.05)) == 1
 

@@ -92,23 +92,23 @@ def test_required_deceleration_by_hand():
     #   ego:  25 + 20*5.357143 - 1.7*5.357143² = 25 + 107.142857 - 48.788265 = 83.354592
     #   lead: 15*6.607143 - 6.607143²           = 99.107143 - 43.654337      = 55.452806
     #   closest approach 27.901786 (> 83.823529 - 56.25 = 27.573529 at the stops) + 2.5
-    # imminent, a = 6: t* = (15 - 20 - 7.5)/(2 - 6) = 3.125 s, both at 8.75 m/s
-    #   ego:  25 + 20*1.875 - 3*1.875² = 51.953125; lead: 15*3.125 - 3.125² = 37.109375
-    #   closest approach 14.84375 + 2.5 = 17.34375
-    assert distances("required_deceleration") == pytest.approx((30.401786, 17.34375), abs=1e-6)
+    # imminent, a = 5: t* = (15 - 20 - 6.25)/(2 - 5) = 3.75 s, both at 7.5 m/s
+    #   ego:  25 + 20*2.5 - 2.5*2.5² = 59.375; lead: 15*3.75 - 3.75² = 42.1875
+    #   closest approach 17.1875 + 2.5 = 19.6875
+    assert distances("required_deceleration") == pytest.approx((30.401786, 19.6875), abs=1e-6)
 
 
 def test_required_deceleration_special_cases():
     p = RequiredDecelerationParams()
     # stopped lead: d = d0 + v t_r + v²/(2a) = 2.5 + 25 + 400/6.8 = 86.323529 (caution)
-    #                                        = 2.5 + 25 + 400/12  = 60.833333 (imminent)
+    #                                        = 2.5 + 25 + 400/10  = 67.5 (imminent)
     stopped = distances("required_deceleration", rel=-20.0, acc=0.0)
-    assert stopped == pytest.approx((86.323529, 60.833333), abs=1e-6)
+    assert stopped == pytest.approx((86.323529, 67.5), abs=1e-6)
     # steady following, no braking: the gap never closes -> d0
     assert distances("required_deceleration", rel=0.0, acc=0.0) == (p.d0, p.d0)
     # lead at constant 5 m/s: closing until the ego is down to 5 m/s:
-    # (20-5)*1.25 + 15²/(2*6) = 18.75 + 18.75 = 37.5 (+ 2.5 = 40, imminent)
-    assert distances("required_deceleration", rel=-15.0, acc=0.0)[1] == pytest.approx(40.0)
+    # (20-5)*1.25 + 15²/(2*5) = 18.75 + 22.5 = 41.25 (+ 2.5 = 43.75, imminent)
+    assert distances("required_deceleration", rel=-15.0, acc=0.0)[1] == pytest.approx(43.75)
     # a lead that accelerates is treated as one at constant speed (b = max(-a_lead, 0))
     accel = distances("required_deceleration", rel=-15.0, acc=1.5)
     assert accel == distances("required_deceleration", rel=-15.0, acc=0.0)

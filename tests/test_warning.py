@@ -154,15 +154,15 @@ def test_reset_of_some_pairs():
 
 def test_oracle_on_exact_truth_with_per_pair_kinematics():
     # Three pairs at 20 m/s: closing at 10, steady, and no leader (NaN gap).  The default
-    # stopping-distance model: at 20 m/s with a lead at 10 m/s the caution distance is
-    # 30 + 400/9.8 - 100/15.6 + 2.5 = 66.905, the imminent 15 + 400/15.6 - 100/15.6 + 2.5
-    # = 36.731; for a lead at 20 m/s: 47.676 and 17.5.
+    # required-deceleration model: at 20 m/s with a lead at 10 m/s the caution distance is
+    # 10*1.25 + 10²/(2*3.4) + 2.5 = 29.706, the imminent 12.5 + 10²/(2*5) + 2.5 = 25; for a
+    # lead at 20 m/s both are d0 = 2.5.
     logic = WarningLogic(WarningConfig(), 3, 0.05)
-    gap = np.array([50.0, 50.0, np.nan])
+    gap = np.array([28.0, 50.0, np.nan])
     v_rel = np.array([-10.0, 0.0, np.nan])
     has_leader = np.array([True, True, False])
     assert list(logic.step(gap, 20.0, v_rel, valid=has_leader)) == [CAUTION, NONE, NONE]
-    gap = np.array([30.0, 10.0, np.nan])
+    gap = np.array([24.0, 2.0, np.nan])
     assert list(logic.step(gap, 20.0, v_rel, valid=has_leader)) == [IMMINENT, IMMINENT, NONE]
 
 

@@ -102,8 +102,8 @@ def test_dense_fog_blinds_the_camera_so_the_fusion_misses_the_stopped_car_too():
 
 def test_before_a_curve_the_adjacent_lane_car_fools_every_method():
     s = _world("curve_adjacent", ("radar", "federated"))
-    for summary in s.values():
-        assert _false(summary, "adjacent") >= 3
+    for summary in s.values():  # 2 of the 10 runs (with the stopping-distance rule, 3 or more)
+        assert _false(summary, "adjacent") >= 2
 
 
 def test_a_car_parked_before_a_curve_fools_the_camera_confirmed_fusion():

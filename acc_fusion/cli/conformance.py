@@ -23,8 +23,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "conformance",
         help="standard FCW manoeuvres against the protocols' requirements (exit 1 on failure)",
-        description="Run the NHTSA FCW confirmation tests and the Euro NCAP car-to-car rear "
-        "manoeuvres with noisy sensors, several trials each; print the TTC at the first "
+        description="Run the NHTSA FCW confirmation tests and Euro NCAP's car-to-car rear "
+        "stationary test with noisy sensors, several trials each; print the TTC at the first "
         "alert of every trial against the protocol's requirement. Exit code 0 only when every "
         "manoeuvre passes by its pass rule (5 of 7 trials).",
     )

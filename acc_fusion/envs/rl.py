@@ -370,6 +370,7 @@ def train_ppo(
     verbose: int = 0,
     progress: bool = False,
     threads: int | None = 1,
+    env_kwargs: dict | None = None,
     **ppo_kwargs,
 ):
     """Train PPO on the native vector environment for ``timesteps`` steps or ``minutes`` of
@@ -378,7 +379,8 @@ def train_ppo(
     The environment is ``num_envs`` copies of ``acc_fusion/CollisionWarning-v0`` (default
     reward and scenario mixture) behind :class:`GymVectorToSB3`, with
     ``VecMonitor`` and a reward-only ``VecNormalize`` (training only: the saved model takes raw
-    observations).  ``ppo_kwargs`` go to :func:`make_ppo`.
+    observations).  ``env_kwargs`` go to :func:`make_vec_env` (e.g. ``config``, whose warning
+    rule is the oracle the reward follows); ``ppo_kwargs`` go to :func:`make_ppo`.
 
     ``threads``: torch's intra-op threads during training (restored afterwards; ``None``:
     leave torch's setting).  One by default: the 64-64 MLP gains little from more, and the
@@ -392,7 +394,7 @@ def train_ppo(
     """
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    venv = make_vec_env(num_envs)
+    venv = make_vec_env(num_envs, **(env_kwargs or {}))
     venv.seed(seed)
     gamma = ppo_kwargs.get("gamma", PPO_DEFAULTS["gamma"])
     venv = VecNormalize(VecMonitor(venv), norm_obs=False, norm_reward=True, gamma=gamma)

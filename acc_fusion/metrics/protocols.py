@@ -19,9 +19,10 @@ nhtsa_lvs  NHTSA test 1, LVS           2.1 s         5 of 7  TTC verified (secon
 nhtsa_lvd  NHTSA test 2, LVD           2.4 s         5 of 7  not verified here
 nhtsa_lvm  NHTSA test 3, LVM           2.0 s         5 of 7  not verified here
 ccrs       Euro NCAP CCRs              2.1 s         5 of 7  ASSUMPTION (NHTSA LVS rule)
-ccrm       Euro NCAP CCRm              2.0 s         5 of 7  ASSUMPTION (NHTSA LVM rule)
-ccrb       Euro NCAP CCRb              2.4 s         5 of 7  ASSUMPTION (NHTSA LVD rule)
 =========  ==========================  ============  ======  ===========================
+
+The Euro NCAP manoeuvres ``ccrm`` and ``ccrb`` have no FCW requirement: Euro NCAP tests
+them with automatic braking only (below).
 
 What was verified and what is assumed
     NHTSA, *Forward Collision Warning System Confirmation Test*, Office of Vehicle Safety,
@@ -35,14 +36,17 @@ What was verified and what is assumed
     the widely cited values of that procedure, not checked against its text here; nor is
     NHTSA's TTC formula for the decelerating lead (we use gap over closing speed throughout).
 
-    Euro NCAP, *Test Protocol - AEB Car-to-Car systems* (v3.0.2 2019; v4.x 2022-2023): the
-    manoeuvres CCRs/CCRm/CCRb are verified (speeds, headways, decelerations, via BeamNG's
-    implementation of v3.0.2), but no FCW timing requirement could be verified from the
-    sources reached here (to our knowledge Euro NCAP scores FCW through a warning-plus-
-    driver-reaction test by avoidance or impact speed rather than by a TTC threshold; this too
-    is unverified).  For a comparable pass/fail figure we apply the NHTSA rule of the matching
-    manoeuvre (stationary ↔ LVS, moving ↔ LVM, braking ↔ LVD) with 5 of 7 trials: an
-    ASSUMPTION, marked ``verified=False``.
+    Euro NCAP, *Test Protocol - AEB Car-to-Car systems*, v4.3.1, February 2024, and
+    *Assessment Protocol - Safety Assist - Collision Avoidance*, v10.4.1, February 2024 (read
+    here in full).  The forward collision warning is tested only in CCRs, at 55-80 km/h: a
+    braking robot reacts to the warning "with a delay time of 1.2 seconds" and brakes at
+    4 m/s² (test protocol §8.4.6 and annex A.4), and the score is the impact speed (safety
+    assist §3.3.1), not a TTC at the warning; the FCW counts only with dynamic brake support
+    (§3.1).  CCRm and CCRb are scored for automatic emergency braking only (§3.3.2), so an
+    FCW requirement for them would be invented and there is none here.  For CCRs we apply the
+    NHTSA rule of the matching manoeuvre (LVS: 2.1 s, 5 of 7 trials), an ASSUMPTION marked
+    ``verified=False``; the manoeuvres themselves (speeds, headways, decelerations) are the
+    protocol's, checked against BeamNG's implementation of v3.0.2.
 """
 
 from __future__ import annotations
@@ -56,14 +60,14 @@ from acc_fusion.core.errors import InputError
 from acc_fusion.core.validation import check_array, check_choice
 
 _NHTSA = "NHTSA FCW System Confirmation Test (Feb. 2013)"
-_EURO_NCAP = "Euro NCAP AEB Car-to-Car test protocol v4.x (FCW rule assumed)"
+_EURO_NCAP = "Euro NCAP AEB Car-to-Car test protocol v4.3.1 (FCW rule assumed)"
 _NHTSA_SOURCE = (
     "NHTSA, Forward Collision Warning System Confirmation Test, Office of Vehicle Safety, "
     "Feb. 2013, §12"
 )
 _ASSUMED = (
-    "ASSUMPTION: Euro NCAP's FCW timing requirement could not be verified; the NHTSA rule of "
-    "the matching manoeuvre ({}) is applied"
+    "ASSUMPTION: Euro NCAP scores the FCW by impact speed after a robot's braking 1.2 s later, "
+    "not by a TTC; the NHTSA rule of the matching manoeuvre ({}) is applied"
 )
 
 
@@ -133,8 +137,6 @@ REQUIREMENTS: dict[str, Requirement] = {
         _LVD,
         _LVM,
         _euro_ncap("ccrs", "Car-to-Car Rear stationary", _LVS),
-        _euro_ncap("ccrm", "Car-to-Car Rear moving", _LVM),
-        _euro_ncap("ccrb", "Car-to-Car Rear braking", _LVD),
     )
 }
 

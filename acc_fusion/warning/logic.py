@@ -54,7 +54,11 @@ class WarningConfig:
 
     Attributes:
         model: safety-distance model, a name of :data:`acc_fusion.warning.safety.SAFETY_MODELS`
-            (default ``"stopping_distance"``).
+            (default ``"required_deceleration"``, CAMP's rule, which reads the lead's
+            closing speed and deceleration: in the bundled motorway's traffic it raises
+            5.6 nuisance and sensing-false alerts per 100 km against 70 for the papers'
+            ``"stopping_distance"``, which stays on in close following; see
+            docs/theory/alert-classes.md).
         params: that model's parameter dataclass (e.g.
             :class:`~acc_fusion.warning.safety_params.MazdaParams`), a mapping of its fields (from
             TOML or YAML), or ``None`` for its defaults.
@@ -67,7 +71,7 @@ class WarningConfig:
             the gap (default 0: the gap itself).
     """
 
-    model: str = "stopping_distance"
+    model: str = "required_deceleration"
     params: object | None = None
     hysteresis: float = 0.1
     min_on_time: float = 0.5

@@ -265,14 +265,18 @@ class RequiredDecelerationParams:
             (default 3.4 ≈ 0.35 g: the deceleration most drivers exceed when stopping for an
             unexpected object, AASHTO, *A Policy on Geometric Design of Highways and Streets*,
             stopping sight distance, 2004).
-        decel_imminent: threshold of the imminent level [m/s²] (default 6.0 ≈ 0.6 g: the
-            ego's hard braking in the Mazda (α1) and PATH (a) algorithms).
+        decel_imminent: threshold of the imminent level [m/s²] (default 5.0 ≈ 0.5 g,
+            calibrated here, an assumption of this project: between AASHTO's 3.4 and the
+            6.0 hard braking of the Mazda (α1) and PATH (a) algorithms, it is the value of
+            the grid 4-7 m/s² × reaction 1-2 s with the fewest nuisance alerts in the
+            bundled motorway's traffic that still passes the NHTSA tests, ``acc-fusion
+            tune``, docs/theory/alert-classes.md).
         d0: margin left at the closest approach [m] (default 2.5: SUMO's default ``minGap``).
     """
 
     reaction_time: float = 1.25
     decel_caution: float = 3.4
-    decel_imminent: float = 6.0
+    decel_imminent: float = 5.0
     d0: float = 2.5
 
     def __post_init__(self) -> None:
