@@ -65,6 +65,16 @@ def test_steady_following_at_one_second_headway_is_never_crash_relevant():
     assert s.warnings == 1 and s.nuisance == 1 and s.crash_relevant == s.sensing_false == 0
 
 
+def test_the_default_raises_neither_level_in_steady_following():
+    # 10 to 40 m/s at 0.8, 1.0 and 1.5 s headway, equal speeds, nobody braking.
+    v = np.repeat([10.0, 20.0, 30.0, 40.0], 3)
+    gap = v * np.tile([0.8, 1.0, 1.5], 4)
+    logic = WarningLogic(WarningConfig(), v.size, DT)
+    assert (logic.step(gap, v, np.zeros(v.size)) == 0).all()
+    stopping = WarningLogic(STOPPING, v.size, DT)  # on at 1 s: its caution distance is 2.14 s
+    assert (stopping.step(gap, v, np.zeros(v.size))[v == 30.0] > 0).all()
+
+
 def test_lead_braking_at_0_6_g_from_two_seconds_headway_is_crash_relevant():
     t, gap, v, vl, al = follow(
         60.0, 30.0, lambda x: 30.0 if x < 1.0 else max(30.0 - 0.6 * G * (x - 1.0), 0.0)
