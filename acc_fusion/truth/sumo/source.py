@@ -85,6 +85,7 @@ from pathlib import Path
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.memory import release_free_heap
 from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.sumo import launch
@@ -96,6 +97,9 @@ from acc_fusion.truth.sumo.slots import SWEEP_STEPS, SumoSlots
 
 #: The open source of this process (libsumo holds one simulation per process).
 _OPEN: weakref.ref[SumoSource] | None = None
+#: Simulated time between two returns of the freed heap to the system [s]
+#: (:func:`acc_fusion.core.memory.release_free_heap`; a few ms each on A10KW).
+TRIM_PERIOD = 60.0
 
 
 class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
@@ -237,6 +241,7 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
         self._hazards: dict[str, _Hazard] = {}
         self._res: dict[str, dict] = {}
         self._k = 0
+        self._trim_steps = max(1, round(TRIM_PERIOD / self.dt))
         self._t = self.begin
         self._sumo_done = False
         self.n_departed = self.n_equipped = self.n_inattentive = 0
@@ -345,6 +350,8 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
             self._fail(exc)
         self._k += 1
         self._guard(self._update)
+        if self._k % self._trim_steps == 0:
+            release_free_heap()
 
     def close(self) -> None:
         """Close SUMO (idempotent); the last frame and the counters stay readable."""
