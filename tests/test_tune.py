@@ -85,3 +85,27 @@ def test_the_recording_is_the_traffic_whose_classes_acc_fusion_sumo_prints():
     assert rule.warnings == oracle.threats > 0
     assert rule.relevant == oracle.relevant > 0
     assert rule.km == pytest.approx(oracle.km)
+
+
+def test_the_recording_keeps_the_gaze_the_adaptive_warning_reads():
+    """The drivers' gaze is recorded: the rule with the driver monitor fires on the recording
+    as the oracle of the FCW-off run with the monitor, and less than the rule alone."""
+    from dataclasses import replace
+
+    from acc_fusion.cli.common import traffic_config, traffic_sim_config
+    from acc_fusion.cli.main import build_parser
+    from acc_fusion.studies.traffic import _run
+    from acc_fusion.studies.tune import record_sumo, rule_on_truth
+    from acc_fusion.truth.sumo.nets import resolve_sumocfg
+    from acc_fusion.warning.logic import AdaptiveConfig
+
+    args = build_parser().parse_args(["sumo", "--net", "motorway", "--end", "40"])
+    sumo = traffic_config(args, resolve_sumocfg("motorway", None), seed=0)
+    plain = traffic_sim_config(args)
+    sim = replace(plain, warning=replace(plain.warning, adaptive=AdaptiveConfig(enabled=True)))
+    off = _run(sumo, replace(sim, drive=sim.methods[-1]), False, False, False)
+    oracle = off.summaries[sim.methods[-1]]
+    recording = record_sumo(sumo, sim)
+    rule = rule_on_truth(recording, sim)
+    assert rule.warnings == oracle.threats > 0
+    assert rule_on_truth(recording, plain).warnings > rule.warnings

@@ -15,7 +15,8 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import run_figure
-from acc_fusion.sim.closed_loop import Trace, simulate
+from acc_fusion.sim.closed_loop import simulate
+from acc_fusion.sim.hooks import Trace
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

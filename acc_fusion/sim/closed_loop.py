@@ -33,6 +33,7 @@ from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.metrics.alert_classes import AlertClassConfig, crash_relevant
 from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.metrics.summary import FCWSummary
+from acc_fusion.sensors.driver_monitor import DriverMonitor
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import Measurement
 from acc_fusion.sensors.spec import infrared_spec, radar_spec
@@ -42,9 +43,7 @@ from acc_fusion.truth.driver import Driver, DriverConfig
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.manoeuvres import SCENARIOS
 from acc_fusion.truth.scripted import make_scenario
-from acc_fusion.warning.kinematics import time_to_collision_braking_lead
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
-from acc_fusion.warning.safety import safety_distances
 from acc_fusion.warning.ttc import time_to_collision
 
 #: The methods compared by default: each sensor alone, centralized and federated fusion.
@@ -155,68 +154,6 @@ class StepView:
 
 
 @dataclass
-class Trace:
-    """What happened to one run, step by step (for the ``run`` command's plot and CSV)."""
-
-    warning: WarningConfig
-    run: int = 0
-    rows: list[dict] = field(default_factory=list)
-
-    def __call__(self, view: StepView) -> None:
-        i, frame = self.run, view.frame
-        has = bool(frame.has_leader[i])
-        d_caution, d_imminent = safety_distances(
-            self.warning.model,
-            frame.ego_speed[i : i + 1],
-            frame.range_rate[i : i + 1] if has else np.zeros(1),
-            frame.lead_accel[i : i + 1] if has else np.zeros(1),
-            self.warning.params,
-        )
-        row = {
-            "t": frame.t,
-            "gap": frame.gap[i] if has else np.nan,
-            "range_rate": frame.range_rate[i] if has else np.nan,
-            "ego_speed": frame.ego_speed[i],
-            "ttc": view.ttc[i],
-            "oracle_level": int(view.oracle[i]),
-            "crash_relevant": bool(view.relevant[i]),
-            "d_caution": d_caution[0] if has else np.nan,
-            "d_imminent": d_imminent[0] if has else np.nan,
-        }
-        for m in view.measurements:
-            row[f"{m.sensor}_range"] = m.z[i, 0] if m.valid[i] else np.nan
-            row[f"{m.sensor}_range_rate"] = m.z[i, 1] if m.valid[i] else np.nan
-        for name, est in view.estimates.items():
-            ok = est.valid[i]
-            row[f"{name}_gap"] = est.gap[i] if ok else np.nan
-            row[f"{name}_gap_std"] = est.gap_std[i] if ok else np.nan
-            row[f"{name}_level"] = int(view.levels[name][i])
-        self.rows.append(row)
-
-
-class FirstWarning:
-    """Records, per run, the true TTC at the onset of the first warning of ``method``, judged
-    as NHTSA's FCW confirmation test (2013) judges it: the lead keeping its deceleration to a
-    stop (:func:`~acc_fusion.warning.kinematics.time_to_collision_braking_lead`; the
-    constant-speed TTC where the lead does not brake)."""
-
-    def __init__(self, n_runs: int, method: str, level: int) -> None:
-        self.method, self.level = method, level
-        self.ttc = np.full(n_runs, np.nan)
-
-    def __call__(self, view: StepView) -> None:
-        new = np.isnan(self.ttc) & (view.levels[self.method] >= self.level)
-        if new.any():
-            f = view.frame
-            has = f.has_leader
-            ttc = time_to_collision_braking_lead(
-                np.where(has, f.gap, 1.0), f.ego_speed, np.where(has, f.lead_speed, 0.0),
-                np.where(has, f.lead_accel, 0.0),
-            )  # fmt: skip
-            self.ttc[new] = np.where(has, ttc, np.inf)[new]
-
-
-@dataclass
 class SimResult:
     """Metrics of every method, and the outcome of the runs."""
 
@@ -315,15 +252,20 @@ class Perception(PairState):
         for est in self.estimators.values():
             est.forget(pairs)
 
-    def step(self, frame: TruthFrame, active: np.ndarray, reassigned=None) -> Perceived:
-        """Perceive ``frame`` (the pairs in ``active`` are being driven)."""
+    def step(
+        self, frame: TruthFrame, active: np.ndarray, reassigned=None, attentive=None
+    ) -> Perceived:
+        """Perceive ``frame`` (the pairs in ``active`` are being driven; the drivers in
+        ``attentive``, if given, look at the road: the oracle's adaptive timing)."""
         accel, wheel = self._read_ego(frame)
         if reassigned is not None and reassigned.any():
             self.forget(reassigned, wheel)
         meas = [s.measure(frame) for s in self.sensors]
         v_ego, bias = self.ego.step(accel, wheel)
         self._accel_now = accel - bias
-        oracle, ttc, relevant = judge(self.oracle, self.config.alert_classes, frame, active)
+        oracle, ttc, relevant = judge(
+            self.oracle, self.config.alert_classes, frame, active, attentive
+        )
         ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
         return Perceived(frame, meas, v_ego, ests, oracle, ttc, relevant)
 
@@ -333,10 +275,15 @@ class Perception(PairState):
 
 
 def judge(
-    oracle: WarningLogic, classes: AlertClassConfig, frame: TruthFrame, active: np.ndarray
+    oracle: WarningLogic,
+    classes: AlertClassConfig,
+    frame: TruthFrame,
+    active: np.ndarray,
+    attentive: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What truth says at ``frame``: the oracle's warning level (the rule on ground truth,
-    advancing ``oracle``), the true TTC (constant speeds, as SUMO's SSM device defines it; inf
+    advancing ``oracle``; ``attentive``: the drivers a driver monitor reports looking, for an
+    adaptive rule), the true TTC (constant speeds, as SUMO's SSM device defines it; inf
     without a leader) and the pairs in a crash-relevant situation."""
     has = frame.has_leader & active
     rate = np.where(has, frame.range_rate, 0.0)
@@ -346,6 +293,7 @@ def judge(
         rate,
         np.where(has, frame.lead_accel, 0.0),
         valid=has,
+        attentive=attentive,
     )
     ttc = time_to_collision(np.where(has, frame.gap, 1.0), rate)
     relevant = active & crash_relevant(
@@ -417,9 +365,16 @@ def simulate(
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
     metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
     driver = Driver(n, cfg.driver, seed=np.random.default_rng(s_driver)) if cfg.drive else None
+    adaptive = cfg.warning.adaptive
+    monitor = (
+        DriverMonitor(n, adaptive.latency, adaptive.recovery)
+        if driver is not None and driver.distracts and adaptive.enabled
+        else None
+    )
     # With a source of slots (SUMO, highway-env), every stage works on the prefix of slots
     # that holds the vehicles (acc_fusion.core.slots); a scripted batch keeps all its runs.
-    stages = [perception, *logic.values(), *metrics.values(), *([driver] if driver else [])]
+    stages = [perception, *logic.values(), *metrics.values(),
+              *(s for s in (driver, monitor) if s is not None)]  # fmt: skip
     extent = Extent(n) if isinstance(source, SlotSource) else Extent(n, quantum=n)
 
     steps = 0
@@ -438,7 +393,8 @@ def simulate(
             if k < n:
                 frame, active, collided = frame.head(k), active[:k], collided[:k]
                 new = None if new is None else new[:k]
-            p = perception.step(frame, active, new)
+            attentive = None if monitor is None else monitor.watch(frame.t, driver.eyes_off, new)
+            p = perception.step(frame, active, new, attentive)
             if new is not None and new.any():
                 for m in cfg.methods:
                     logic[m].reset(new)
@@ -447,7 +403,7 @@ def simulate(
                     driver.new_vehicles(new, getattr(source, "vehicle_ids", None))
             levels = {}
             for m in cfg.methods:
-                levels[m] = logic[m].step(**warning_inputs(p, m, active))
+                levels[m] = logic[m].step(**warning_inputs(p, m, active), attentive=attentive)
                 metrics[m].update(
                     frame.t,
                     levels[m],

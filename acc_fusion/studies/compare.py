@@ -16,7 +16,8 @@ from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.protocols import REQUIREMENTS
 from acc_fusion.metrics.summary import ALERT_CLASSES, FCWSummary
-from acc_fusion.sim.closed_loop import FirstWarning, SimConfig, SimResult, simulate
+from acc_fusion.sim.closed_loop import SimConfig, SimResult, simulate
+from acc_fusion.sim.hooks import FirstWarning
 
 #: Radar clutter of the comparison runs: ghosts of stationary roadside objects, the classic
 #: cause of FCW false alarms (0.05 per second per vehicle: one every 20 s of driving).

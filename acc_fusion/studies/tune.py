@@ -37,6 +37,7 @@ from acc_fusion.core.table import Table
 from acc_fusion.metrics.alert_classes import crash_relevant
 from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.metrics.summary import FCWSummary
+from acc_fusion.sensors.driver_monitor import DriverMonitor
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.studies.compare import conformance
 from acc_fusion.truth.sumo.config import SumoConfig
@@ -67,21 +68,29 @@ class Recording:
 
 class _Recorder:
     """An ``on_step`` hook of :func:`simulate` that keeps every step's truth (a
-    :class:`Recording`'s step)."""
+    :class:`Recording`'s step), with the drivers' eyes-off-road state as a driver monitor
+    reads it at the step's start (the state the drivers' previous step left)."""
 
     def __init__(self, source) -> None:
         self.source, self.steps = source, []
+        self._eyes = np.zeros(0, dtype=bool)
 
     def __call__(self, view: StepView) -> None:
-        f, src = view.frame, self.source
-        self.steps.append(_truth(f, src.active, src.reassigned, f.n_pairs))
+        f, src, k = view.frame, self.source, view.frame.n_pairs
+        eyes = np.zeros(k, dtype=bool)
+        m = min(k, self._eyes.size)
+        eyes[:m] = self._eyes[:m]
+        self._eyes = view.driver.eyes_off
+        self.steps.append(_truth(f, src.active, src.reassigned, k, eyes))
 
 
-def _truth(f, active, new, k: int) -> tuple:
-    """One step of a :class:`Recording`: the time and the first ``k`` slots' truth."""
+def _truth(f, active, new, k: int, eyes: np.ndarray | None = None) -> tuple:
+    """One step of a :class:`Recording`: the time and the first ``k`` slots' truth (and the
+    drivers' eyes-off-road state ``eyes (k,)``, ``None`` for drivers without episodes)."""
     return (
         f.t, f.gap[:k].copy(), f.ego_speed[:k].copy(), f.lead_speed[:k].copy(),
         f.lead_accel[:k].copy(), f.has_leader[:k].copy(), active[:k].copy(), new[:k].copy(),
+        eyes,
     )  # fmt: skip
 
 
@@ -118,14 +127,22 @@ def record_sumo(
 
 def rule_on_truth(recording: Recording, config: SimConfig) -> FCWSummary:
     """The warning rule of ``config`` on the recorded truth (perfect sensing): its alerts are
-    the oracle's, classed against the crash-relevant situations of ``config.alert_classes``."""
+    the oracle's, classed against the crash-relevant situations of ``config.alert_classes``;
+    with distracted drivers, through a driver monitor for the rule's adaptive timing
+    (:class:`~acc_fusion.warning.logic.AdaptiveConfig`), as :func:`simulate` runs it."""
     n, dt = recording.n_pairs, recording.dt
     logic = WarningLogic(config.warning, n, dt)
+    adaptive = config.warning.adaptive
+    monitor = None
+    if adaptive.enabled and recording.distraction > 0:
+        monitor = DriverMonitor(n, adaptive.latency, adaptive.recovery)
+    looked = np.zeros(n, dtype=bool)
+    attentive = None
     metrics = FCWMetrics(n, dt, config.tolerance, config.warn_level)
     buf = np.zeros((5, n))
     flags = np.zeros((3, n), dtype=bool)
     t = 0.0
-    for t, gap, v, vl, al, has, active, new in recording.steps:
+    for t, gap, v, vl, al, has, active, new, eyes in recording.steps:
         k = gap.size
         g, ve, vle, ale, _ = buf
         h, act, fresh = flags
@@ -136,9 +153,13 @@ def rule_on_truth(recording: Recording, config: SimConfig) -> FCWSummary:
         if fresh.any():
             logic.reset(fresh)
             metrics.reset(fresh)
+        if monitor is not None:
+            looked[:k], looked[k:] = eyes, False
+            attentive = monitor.watch(t, looked, fresh)
         use = h & act
         rate = np.where(use, vle - ve, 0.0)
-        level = logic.step(np.where(use, g, 0.0), ve, rate, np.where(use, ale, 0.0), valid=use)
+        a_lead = np.where(use, ale, 0.0)
+        level = logic.step(np.where(use, g, 0.0), ve, rate, a_lead, valid=use, attentive=attentive)
         ttc = time_to_collision(np.where(use, g, 1.0), rate)
         relevant = act & crash_relevant(config.alert_classes, h, g, ve, vle, ale)
         metrics.update(t, level, level, ttc, ve, act.copy(), None, relevant)

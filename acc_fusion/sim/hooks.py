@@ -1,0 +1,76 @@
+"""Hooks for the ``on_step`` callback of :func:`acc_fusion.sim.closed_loop.simulate`: a run's
+trace step by step (:class:`Trace`) and the true TTC at each run's first warning
+(:class:`FirstWarning`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from acc_fusion.sim.closed_loop import StepView
+from acc_fusion.warning.kinematics import time_to_collision_braking_lead
+from acc_fusion.warning.logic import WarningConfig
+from acc_fusion.warning.safety import safety_distances
+
+
+@dataclass
+class Trace:
+    """What happened to one run, step by step (for the ``run`` command's plot and CSV)."""
+
+    warning: WarningConfig
+    run: int = 0
+    rows: list[dict] = field(default_factory=list)
+
+    def __call__(self, view: StepView) -> None:
+        i, frame = self.run, view.frame
+        has = bool(frame.has_leader[i])
+        d_caution, d_imminent = safety_distances(
+            self.warning.model,
+            frame.ego_speed[i : i + 1],
+            frame.range_rate[i : i + 1] if has else np.zeros(1),
+            frame.lead_accel[i : i + 1] if has else np.zeros(1),
+            self.warning.params,
+        )
+        row = {
+            "t": frame.t,
+            "gap": frame.gap[i] if has else np.nan,
+            "range_rate": frame.range_rate[i] if has else np.nan,
+            "ego_speed": frame.ego_speed[i],
+            "ttc": view.ttc[i],
+            "oracle_level": int(view.oracle[i]),
+            "crash_relevant": bool(view.relevant[i]),
+            "d_caution": d_caution[0] if has else np.nan,
+            "d_imminent": d_imminent[0] if has else np.nan,
+        }
+        for m in view.measurements:
+            row[f"{m.sensor}_range"] = m.z[i, 0] if m.valid[i] else np.nan
+            row[f"{m.sensor}_range_rate"] = m.z[i, 1] if m.valid[i] else np.nan
+        for name, est in view.estimates.items():
+            ok = est.valid[i]
+            row[f"{name}_gap"] = est.gap[i] if ok else np.nan
+            row[f"{name}_gap_std"] = est.gap_std[i] if ok else np.nan
+            row[f"{name}_level"] = int(view.levels[name][i])
+        self.rows.append(row)
+
+
+class FirstWarning:
+    """Records, per run, the true TTC at the onset of the first warning of ``method``, judged
+    as NHTSA's FCW confirmation test (2013) judges it: the lead keeping its deceleration to a
+    stop (:func:`~acc_fusion.warning.kinematics.time_to_collision_braking_lead`; the
+    constant-speed TTC where the lead does not brake)."""
+
+    def __init__(self, n_runs: int, method: str, level: int) -> None:
+        self.method, self.level = method, level
+        self.ttc = np.full(n_runs, np.nan)
+
+    def __call__(self, view: StepView) -> None:
+        new = np.isnan(self.ttc) & (view.levels[self.method] >= self.level)
+        if new.any():
+            f = view.frame
+            has = f.has_leader
+            ttc = time_to_collision_braking_lead(
+                np.where(has, f.gap, 1.0), f.ego_speed, np.where(has, f.lead_speed, 0.0),
+                np.where(has, f.lead_accel, 0.0),
+            )  # fmt: skip
+            self.ttc[new] = np.where(has, ttc, np.inf)[new]
