@@ -57,7 +57,8 @@ class AdaptiveConfig:
     attentive it computes its distances with ``reaction_time`` in place of the model's
     reaction time; for the others it keeps the model's timing.  The model's timing also
     holds for every driver of a run whose drivers have no gaze to watch (no eyes-off-road
-    episodes, ``driver.distraction.rate`` 0: the NHTSA and Euro NCAP tests, the 2-D world).
+    episodes, ``driver.distraction.rate`` 0: the NHTSA and Euro NCAP tests, the 2-D world)
+    and the gymnasium environment's oracle.
     Only a model with a ``reaction_time`` parameter (``required_deceleration``) can adapt;
     enabling it with another is a one-line error.
 
