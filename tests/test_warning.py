@@ -83,6 +83,19 @@ def test_k_of_n_confirmation_delays_the_onset_by_k_minus_1_steps():
     assert run([15, 15, 30, 30], config(confirm=(2, 5))) == [0, 1, 0, 0]
 
 
+def test_persistence_is_the_same_time_whatever_the_step():
+    """The condition must hold for ``persistence`` seconds, to the nearest step: 0.2 s is
+    2 more steps at 0.1 s, 4 at 0.05 s and none at 0.5 s (the nearest step is 0)."""
+    gaps = [30, 30] + [15] * 8
+    assert run(gaps, config(persistence=0.2), dt=0.1) == run(gaps, config(confirm=(3, 3)))
+    assert run(gaps, config(persistence=0.2), dt=0.1) == [0, 0, 0, 0, 1, 1, 1, 1, 1, 1]
+    fine = run([30] * 4 + [15] * 8, config(persistence=0.2), dt=0.05)
+    assert fine.index(1) == 4 + 4
+    assert run(gaps, config(persistence=0.2), dt=0.5) == run(gaps, config(), dt=0.5)
+    # a one-step spike, the sensing-false alert it is meant to remove, raises nothing
+    assert run([30, 15, 30, 30], config(persistence=0.1)) == [0, 0, 0, 0]
+
+
 def test_lower_quantile_warns_earlier_with_larger_sigma():
     gaps = 40.0 - np.arange(30.0)  # closing 1 m per step
 
@@ -199,6 +212,8 @@ def test_params_from_a_mapping_and_from_toml_like_config():
         ({"confirm": (0, 2)}, r"1 <= k <= n"),
         ({"confirm": (1.5, 2)}, r"warning.confirm"),
         ({"confirm": 3}, r"warning.confirm"),
+        ({"persistence": -0.1}, r"warning.persistence must be in \[0, 10\]"),
+        ({"persistence": 0.1, "confirm": (2, 2)}, "warning.persistence and warning.confirm"),
     ],
 )
 def test_bad_config_is_rejected(kw, match):

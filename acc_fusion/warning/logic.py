@@ -14,7 +14,9 @@ rule                    condition
 ======================  ===================================================================
 condition               :math:`c_L = \tilde g < d_L`
 raise                   :math:`c_L` now, and (with ``confirm = (k, n)``) :math:`c_L` in at
-                        least k of the last n steps, this one included
+                        least k of the last n steps, this one included; ``persistence``
+                        T is ``confirm = (k, k)`` with :math:`k = 1 + \operatorname{round}
+                        (T / \Delta t)`: the condition held over T, to the nearest step
 hold                    a raised level stays on for at least ``min_on_time`` seconds
 lower                   after the hold, only once :math:`\tilde g > d_L(1 + h)`
                         (``hysteresis`` h); between :math:`d_L` and :math:`d_L(1+h)` the
@@ -117,6 +119,11 @@ class WarningConfig:
         min_on_time: a raised level is held at least this long [s] (default 0.5).
         confirm: ``(k, n)``: raise only when the condition held in k of the last n steps,
             this one included (``None``, the default: raise at once).
+        persistence: raise only when the condition has held this long [s], to the nearest
+            step: ``confirm = (k, k)`` with ``k = 1 + round(persistence / dt)``, so the same
+            time whatever the step (default 0: raise at once; exclusive with ``confirm``).
+            0.1 s removes most sensing-false alerts of ``make run``'s traffic
+            (docs/theory/alert-classes.md); the value is this project's, an assumption.
         z: compare the lower quantile :math:`g - z\\sigma_g` of the estimated gap instead of
             the gap (default 0: the gap itself).
         adaptive: driver-state-adaptive timing (:class:`AdaptiveConfig`; off by default).
@@ -127,6 +134,7 @@ class WarningConfig:
     hysteresis: float = 0.1
     min_on_time: float = 0.5
     confirm: tuple[int, int] | None = None
+    persistence: float = 0.0
     z: float = 0.0
     adaptive: AdaptiveConfig = AdaptiveConfig()
 
@@ -143,6 +151,9 @@ class WarningConfig:
         check_range("warning.hysteresis", self.hysteresis, 0.0, 10.0)
         check_range("warning.min_on_time", self.min_on_time, 0.0, 60.0)
         check_range("warning.z", self.z, 0.0, 10.0)
+        check_range("warning.persistence", self.persistence, 0.0, 10.0)
+        if self.persistence > 0 and self.confirm is not None:
+            raise ConfigError("warning.persistence and warning.confirm exclude each other")
         if self.confirm is not None:
             ok = isinstance(self.confirm, (tuple, list)) and len(self.confirm) == 2
             k, n = self.confirm if ok else (None, None)
@@ -189,7 +200,8 @@ class WarningLogic(PairState):
             params = config.params or SAFETY_MODELS[config.model][1]()
             params = replace(params, reaction_time=config.adaptive.reaction_time)
             self._attentive = model_constants(config.model, params)[1]
-        self._k, self._n = config.confirm or (1, 1)
+        k = 1 + math.floor(config.persistence / self.dt + 0.5)  # to the nearest step
+        self._k, self._n = config.confirm or (k, k)
         # Steps a raised level is held: on for at least ceil(min_on_time / dt) steps.
         self._hold = math.ceil(config.min_on_time / self.dt - 1e-9)
         shape = (2, self.n_pairs)
