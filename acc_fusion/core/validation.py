@@ -46,6 +46,17 @@ def check_choice(name: str, value: str, choices: Iterable[str]) -> str:
     return value
 
 
+def check_mask(name: str, value: object, n: int) -> np.ndarray:
+    """``value`` as a boolean array of shape ``(n,)``; anything else is an
+    :class:`~acc_fusion.core.errors.InputError` naming ``name``."""
+    arr = np.asarray(value)
+    if arr.shape != (n,) or arr.dtype != bool:
+        raise InputError(
+            f"{name} must be a boolean array of shape ({n},), got {arr.dtype} {arr.shape}"
+        )
+    return arr
+
+
 def check_array(
     name: str,
     value: object,

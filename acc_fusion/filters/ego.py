@@ -54,9 +54,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.slots import PairState
-from acc_fusion.core.validation import check_array, check_range
+from acc_fusion.core.validation import check_array, check_mask, check_range
 
 #: Measurement matrix of the wheel-speed sensor, :math:`H = [1\ 0]`.
 SPEED_MEASUREMENT = np.array([[1.0, 0.0]])
@@ -246,13 +246,7 @@ class EgoMotionFilter(PairState):
         """Boolean (N,) array from ``value``; all true if ``None``."""
         if value is None:
             return np.ones(self.n_vehicles, dtype=bool)
-        arr = np.asarray(value)
-        if arr.shape != (self.n_vehicles,) or arr.dtype != bool:
-            raise InputError(
-                f"{name} must be a boolean array of shape ({self.n_vehicles},), "
-                f"got {arr.dtype} {arr.shape}"
-            )
-        return arr
+        return check_mask(name, value, self.n_vehicles)
 
 
 @njit(cache=True)

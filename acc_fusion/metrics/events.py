@@ -92,7 +92,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
-from acc_fusion.core.validation import check_array, check_range
+from acc_fusion.core.validation import check_array, check_mask, check_range
 from acc_fusion.metrics.event_kernels import _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
 from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FCWSummary, event_rates
@@ -220,13 +220,7 @@ class FCWMetrics(PairState):
         return arr
 
     def _mask(self, name: str, value: object) -> np.ndarray:
-        arr = np.asarray(value)
-        if arr.shape != (self.n_pairs,) or arr.dtype != bool:
-            raise InputError(
-                f"{name} must be a boolean array of shape ({self.n_pairs},), "
-                f"got {arr.dtype} of shape {arr.shape}"
-            )
-        return arr
+        return check_mask(name, value, self.n_pairs)
 
     def _check_time(self, t: float) -> float:
         t = float(t)

@@ -42,9 +42,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from acc_fusion.core.errors import InputError
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.units import TIME_TOL
+from acc_fusion.core.validation import check_mask
 
 
 class DriverMonitor(PairState):
@@ -76,12 +76,7 @@ class DriverMonitor(PairState):
     def step(self, t: float, eyes_off: np.ndarray) -> np.ndarray:
         """``(N,)`` bool: the drivers the monitor reports attentive at ``t``, given their true
         eyes-off-road state ``eyes_off (N,)``."""
-        off = np.asarray(eyes_off)
-        if off.shape != (self.n,) or off.dtype != bool:
-            raise InputError(
-                f"eyes_off must be a boolean array of shape ({self.n},), got {off.dtype} "
-                f"{off.shape}"
-            )
+        off = check_mask("eyes_off", eyes_off, self.n)
         started = off & np.isnan(self._off_since)
         self._off_since[started] = t
         self._off_since[~off] = np.nan

@@ -42,10 +42,10 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.config import from_mapping
-from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.slots import PairState, pair_mask
-from acc_fusion.core.validation import check_array, check_choice, check_range
+from acc_fusion.core.validation import check_array, check_choice, check_mask, check_range
 from acc_fusion.warning.safety import SAFETY_MODELS, model_constants
 from acc_fusion.warning.safety_kernels import distances_unchecked
 
@@ -243,14 +243,7 @@ class WarningLogic(PairState):
                 reaction time (:class:`AdaptiveConfig`); ``None``: nobody.
         """
         n = self.n_pairs
-        if valid is None:
-            ok = np.ones(n, dtype=bool)
-        else:
-            ok = np.asarray(valid)
-            if ok.shape != (n,) or ok.dtype != bool:
-                raise InputError(
-                    f"valid must be a boolean array of shape ({n},), got {ok.dtype} {ok.shape}"
-                )
+        ok = np.ones(n, dtype=bool) if valid is None else check_mask("valid", valid, n)
         cfg = self.config
         g = np.asarray(gap, dtype=float)
         sigma = np.zeros(n) if gap_std is None else _per_pair(gap_std, n)
@@ -266,12 +259,7 @@ class WarningLogic(PairState):
             check_array("a_lead", acc, (n,), where=ok)
         d_caution, d_imminent = distances_unchecked(self._model, self._constants, v, rel, acc)
         if self._attentive is not None and attentive is not None:
-            looking = np.asarray(attentive)
-            if looking.shape != (n,) or looking.dtype != bool:
-                raise InputError(
-                    f"attentive must be a boolean array of shape ({n},), got {looking.dtype} "
-                    f"{looking.shape}"
-                )
+            looking = check_mask("attentive", attentive, n)
             if looking.any():
                 late = distances_unchecked(self._model, self._attentive, v, rel, acc)
                 d_caution = np.where(looking, late[0], d_caution)
