@@ -1,4 +1,5 @@
-"""The driver-monitoring camera and the warning that adapts to what it reports."""
+"""The driver-monitoring camera and the warning that adapts to what it and the driver's
+braking report."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from acc_fusion.warning.safety_params import RequiredDecelerationParams, TTCPara
 
 DT = 0.1
 ADAPTIVE = AdaptiveConfig(enabled=True)
+NONE = AdaptiveConfig(braking=0.0)  # nothing adapts
 
 
 def reports(eyes_off: list[bool], latency=0.5, recovery=1.0) -> list[bool]:
@@ -112,6 +114,53 @@ def test_bad_adaptive_settings_and_inputs_are_one_line_errors():
     logic = WarningLogic(WarningConfig(adaptive=ADAPTIVE), 2, DT)
     with pytest.raises(InputError, match=r"attentive must be a boolean array of shape \(2,\)"):
         logic.step([10.0, 10.0], 20.0, -1.0, attentive=[1, 0])
+
+
+def test_a_braking_driver_counts_as_attentive_with_or_without_the_camera():
+    accel = np.array([-3.0, -1.0, -0.99, 0.5])
+    assert NONE.attentive(None, accel) is None
+    assert replace(NONE, enabled=True).attentive(None, accel) is None  # no camera in the run
+    braking = AdaptiveConfig(braking=1.0)
+    assert braking.active and not NONE.active
+    assert braking.attentive(None, accel).tolist() == [True, True, False, False]
+    looking = np.array([False, False, True, False])
+    both = replace(braking, enabled=True)
+    assert both.attentive(looking, accel).tolist() == [True, True, True, False]
+    assert replace(NONE, enabled=True).attentive(looking, accel).tolist() == looking.tolist()
+
+
+def test_a_braking_driver_is_warned_with_the_attentive_timing_but_still_warned():
+    """A lead braking at 4 m/s² from 30 m/s at 30 m, the ego braking at 2 m/s² from the start:
+    with ``braking`` the imminent alert comes later than without, but it comes (an attentive
+    reaction is not enough there)."""
+    first = {}
+    for braking in (0.0, 1.0):
+        cfg = WarningConfig(adaptive=AdaptiveConfig(braking=braking))
+        logic = WarningLogic(cfg, 1, DT)
+        gap, v_ego, v_lead, a_ego = 20.0, 30.0, 30.0, -2.0
+        for k in range(60):
+            attentive = cfg.adaptive.attentive(None, np.array([a_ego]))
+            level = logic.step([gap], v_ego, v_lead - v_ego, -4.0, attentive=attentive)
+            if level[0] == 2:
+                first[braking] = k
+                break
+            gap += (v_lead - v_ego) * DT
+            v_lead, v_ego = max(v_lead - 4.0 * DT, 0.0), max(v_ego + a_ego * DT, 0.0)
+    assert set(first) == {0.0, 1.0} and first[1.0] > first[0.0]
+
+
+def test_the_braking_signal_leaves_a_model_without_a_reaction_time_as_it_is():
+    cfg = WarningConfig(model="ttc", adaptive=AdaptiveConfig(braking=1.0))
+    braked, plain = WarningLogic(cfg, 2, DT), WarningLogic(replace(cfg, adaptive=NONE), 2, DT)
+    for gap in (40.0, 25.0, 12.0, 6.0):
+        got = braked.step([gap] * 2, 20.0, -8.0, attentive=np.array([True, False]))
+        np.testing.assert_array_equal(got, plain.step([gap] * 2, 20.0, -8.0))
+    assert braked.level.max() > 0
+
+
+def test_bad_braking_settings_are_one_line_errors():
+    with pytest.raises(ConfigError, match=r"warning.adaptive.braking must be in \[0, 20\]"):
+        AdaptiveConfig(braking=-1.0)
 
 
 def test_watch_meets_new_drivers_whose_eyes_are_still_their_predecessors():

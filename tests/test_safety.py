@@ -104,8 +104,15 @@ def test_required_deceleration_special_cases():
     #                                        = 2.5 + 25 + 400/10  = 67.5 (imminent)
     stopped = distances("required_deceleration", rel=-20.0, acc=0.0)
     assert stopped == pytest.approx((86.323529, 67.5), abs=1e-6)
-    # steady following, no braking: the gap never closes -> d0
-    assert distances("required_deceleration", rel=0.0, acc=0.0) == (p.d0, p.d0)
+    # steady following or an opening range, no braking: the gap never shrinks, no
+    # deceleration is required -> 0, whatever the gap (not d0)
+    assert distances("required_deceleration", rel=0.0, acc=0.0) == (0.0, 0.0)
+    assert distances("required_deceleration", rel=3.0, acc=0.0) == (0.0, 0.0)
+    # closing at 0.1 m/s: 0.1*1.25 + 0.1²/(2a) more than d0
+    slow = distances("required_deceleration", rel=-0.1, acc=0.0)
+    assert slow == pytest.approx((p.d0 + 0.125 + 0.01 / 6.8, p.d0 + 0.125 + 0.01 / 10))
+    # an opening range but a braking lead: the gap shrinks later -> d0 and more
+    assert distances("required_deceleration", rel=3.0, acc=-4.0)[1] > p.d0
     # lead at constant 5 m/s: closing until the ego is down to 5 m/s:
     # (20-5)*1.25 + 15²/(2*5) = 18.75 + 22.5 = 41.25 (+ 2.5 = 43.75, imminent)
     assert distances("required_deceleration", rel=-15.0, acc=0.0)[1] == pytest.approx(43.75)

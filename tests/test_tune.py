@@ -89,7 +89,8 @@ def test_the_recording_is_the_traffic_whose_classes_acc_fusion_sumo_prints():
 
 def test_the_recording_keeps_the_gaze_the_adaptive_warning_reads():
     """The drivers' gaze is recorded: the rule with the driver monitor fires on the recording
-    as the oracle of the FCW-off run with the monitor, and less than the rule alone."""
+    as the oracle of the FCW-off run with the monitor, and less than the rule alone; and so
+    is their braking."""
     from dataclasses import replace
 
     from acc_fusion.cli.common import traffic_config, traffic_sim_config
@@ -109,3 +110,8 @@ def test_the_recording_keeps_the_gaze_the_adaptive_warning_reads():
     rule = rule_on_truth(recording, sim)
     assert rule.warnings == oracle.threats > 0
     assert rule_on_truth(recording, plain).warnings > rule.warnings
+    # The recording keeps the egos' accelerations too: without the braking signal the
+    # rule fires more.
+    still = replace(plain.warning.adaptive, braking=0.0)
+    unbraked = replace(plain, warning=replace(plain.warning, adaptive=still))
+    assert rule_on_truth(recording, unbraked).warnings > rule_on_truth(recording, plain).warnings

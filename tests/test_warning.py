@@ -169,14 +169,14 @@ def test_oracle_on_exact_truth_with_per_pair_kinematics():
     # Three pairs at 20 m/s: closing at 10, steady, and no leader (NaN gap).  The default
     # required-deceleration model: at 20 m/s with a lead at 10 m/s the caution distance is
     # 10*1.25 + 10²/(2*3.4) + 2.5 = 29.706, the imminent 12.5 + 10²/(2*5) + 2.5 = 25; for a
-    # lead at 20 m/s both are d0 = 2.5.
+    # lead at 20 m/s both are 0 (the gap never shrinks), even at 2 m.
     logic = WarningLogic(WarningConfig(), 3, 0.05)
     gap = np.array([28.0, 50.0, np.nan])
     v_rel = np.array([-10.0, 0.0, np.nan])
     has_leader = np.array([True, True, False])
     assert list(logic.step(gap, 20.0, v_rel, valid=has_leader)) == [CAUTION, NONE, NONE]
     gap = np.array([24.0, 2.0, np.nan])
-    assert list(logic.step(gap, 20.0, v_rel, valid=has_leader)) == [IMMINENT, IMMINENT, NONE]
+    assert list(logic.step(gap, 20.0, v_rel, valid=has_leader)) == [IMMINENT, NONE, NONE]
 
 
 def test_a_large_batch_runs_on_arrays():
@@ -254,3 +254,15 @@ def test_reset_by_indices_equals_reset_by_mask_and_clears_only_those_pairs():
     assert np.array_equal(logics[0].level[kept], logics[2].level[kept])
     assert (logics[0].level[~kept] == NONE).all()
     assert (logics[2].level[~kept] != NONE).any()
+
+
+def test_no_warning_below_the_minimum_speed():
+    """A queue creeping at 2 m/s with the gap under the margin: off below ``min_speed``
+    (and its state cleared), on at the same gap and closing speed above it."""
+    logic = WarningLogic(WarningConfig(), 2, 0.1)
+    v_ego = np.array([2.0, 3.0])
+    assert list(logic.step([1.5, 1.5], v_ego, -0.5)) == [NONE, IMMINENT]
+    slow = WarningLogic(WarningConfig(min_speed=0.0), 1, 0.1)
+    assert list(slow.step([1.5], 2.0, -0.5)) == [IMMINENT]
+    with pytest.raises(ConfigError, match=r"warning.min_speed must be in \[0, 100\]"):
+        WarningConfig(min_speed=-1.0)

@@ -256,7 +256,7 @@ class Perception(PairState):
         self, frame: TruthFrame, active: np.ndarray, reassigned=None, attentive=None
     ) -> Perceived:
         """Perceive ``frame`` (the pairs in ``active`` are being driven; the drivers in
-        ``attentive``, if given, look at the road: the oracle's adaptive timing)."""
+        ``attentive``, if given, attend to the road: the oracle's adaptive timing)."""
         accel, wheel = self._read_ego(frame)
         if reassigned is not None and reassigned.any():
             self.forget(reassigned, wheel)
@@ -282,9 +282,10 @@ def judge(
     attentive: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What truth says at ``frame``: the oracle's warning level (the rule on ground truth,
-    advancing ``oracle``; ``attentive``: the drivers a driver monitor reports looking, for an
-    adaptive rule), the true TTC (constant speeds, as SUMO's SSM device defines it; inf
-    without a leader) and the pairs in a crash-relevant situation."""
+    advancing ``oracle``; ``attentive``: the drivers timed as attentive, for an adaptive rule,
+    :meth:`~acc_fusion.warning.logic.AdaptiveConfig.attentive`), the true TTC (constant
+    speeds, as SUMO's SSM device defines it; inf without a leader) and the pairs in a
+    crash-relevant situation."""
     has = frame.has_leader & active
     rate = np.where(has, frame.range_rate, 0.0)
     level = oracle.step(
@@ -393,7 +394,8 @@ def simulate(
             if k < n:
                 frame, active, collided = frame.head(k), active[:k], collided[:k]
                 new = None if new is None else new[:k]
-            attentive = None if monitor is None else monitor.watch(frame.t, driver.eyes_off, new)
+            looking = None if monitor is None else monitor.watch(frame.t, driver.eyes_off, new)
+            attentive = adaptive.attentive(looking, frame.ego_accel)
             p = perception.step(frame, active, new, attentive)
             if new is not None and new.any():
                 for m in cfg.methods:

@@ -85,12 +85,13 @@ class _Recorder:
 
 
 def _truth(f, active, new, k: int, eyes: np.ndarray | None = None) -> tuple:
-    """One step of a :class:`Recording`: the time and the first ``k`` slots' truth (and the
-    drivers' eyes-off-road state ``eyes (k,)``, ``None`` for drivers without episodes)."""
+    """One step of a :class:`Recording`: the time and the first ``k`` slots' truth (with the
+    egos' accelerations, and the drivers' eyes-off-road state ``eyes (k,)``, ``None`` for
+    drivers without episodes)."""
     return (
         f.t, f.gap[:k].copy(), f.ego_speed[:k].copy(), f.lead_speed[:k].copy(),
         f.lead_accel[:k].copy(), f.has_leader[:k].copy(), active[:k].copy(), new[:k].copy(),
-        eyes,
+        eyes, f.ego_accel[:k].copy(),
     )  # fmt: skip
 
 
@@ -128,8 +129,9 @@ def record_sumo(
 def rule_on_truth(recording: Recording, config: SimConfig) -> FCWSummary:
     """The warning rule of ``config`` on the recorded truth (perfect sensing): its alerts are
     the oracle's, classed against the crash-relevant situations of ``config.alert_classes``;
-    with distracted drivers, through a driver monitor for the rule's adaptive timing
-    (:class:`~acc_fusion.warning.logic.AdaptiveConfig`), as :func:`simulate` runs it."""
+    with the rule's adaptive timing (:class:`~acc_fusion.warning.logic.AdaptiveConfig`:
+    the drivers' braking, and with distracted drivers a driver monitor) as :func:`simulate`
+    runs it."""
     n, dt = recording.n_pairs, recording.dt
     logic = WarningLogic(config.warning, n, dt)
     adaptive = config.warning.adaptive
@@ -137,25 +139,26 @@ def rule_on_truth(recording: Recording, config: SimConfig) -> FCWSummary:
     if adaptive.enabled and recording.distraction > 0:
         monitor = DriverMonitor(n, adaptive.latency, adaptive.recovery)
     looked = np.zeros(n, dtype=bool)
-    attentive = None
     metrics = FCWMetrics(n, dt, config.tolerance, config.warn_level)
-    buf = np.zeros((5, n))
+    buf = np.zeros((6, n))
     flags = np.zeros((3, n), dtype=bool)
     t = 0.0
-    for t, gap, v, vl, al, has, active, new, eyes in recording.steps:
+    for t, gap, v, vl, al, has, active, new, eyes, ae in recording.steps:
         k = gap.size
-        g, ve, vle, ale, _ = buf
+        g, ve, vle, ale, aeg, _ = buf
         h, act, fresh = flags
-        g[:k], ve[:k], vle[:k], ale[:k] = gap, v, vl, al
+        g[:k], ve[:k], vle[:k], ale[:k], aeg[:k] = gap, v, vl, al, ae
         h[:k], act[:k], fresh[:k] = has, active, new
-        g[k:] = ve[k:] = vle[k:] = ale[k:] = 0.0
+        g[k:] = ve[k:] = vle[k:] = ale[k:] = aeg[k:] = 0.0
         h[k:] = act[k:] = fresh[k:] = False
         if fresh.any():
             logic.reset(fresh)
             metrics.reset(fresh)
+        seen = None
         if monitor is not None:
             looked[:k], looked[k:] = eyes, False
-            attentive = monitor.watch(t, looked, fresh)
+            seen = monitor.watch(t, looked, fresh)
+        attentive = adaptive.attentive(seen, aeg)
         use = h & act
         rate = np.where(use, vle - ve, 0.0)
         a_lead = np.where(use, ale, 0.0)

@@ -22,7 +22,8 @@ lower                   after the hold, only once :math:`\tilde g > d_L(1 + h)`
                         (``hysteresis`` h); between :math:`d_L` and :math:`d_L(1+h)` the
                         level keeps its state
 imminent ⇒ caution      the caution latch is on whenever the imminent one is
-no track / no leader    ``valid`` False: level none, and the pair's state is cleared
+no track / no leader    ``valid`` False, or the ego slower than ``min_speed``: level none,
+                        and the pair's state is cleared
 output                  2 (imminent) if its latch is on, else 1 (caution) if on, else 0
 ======================  ===================================================================
 
@@ -52,17 +53,28 @@ from acc_fusion.warning.safety_kernels import distances_unchecked
 
 @dataclass(frozen=True)
 class AdaptiveConfig:
-    """Driver-state-adaptive timing: a later warning for a driver whose eyes are on the road.
+    r"""Driver-state-adaptive timing: a later warning for a driver who is attending to the road.
 
-    The warning reads a driver-monitoring camera
-    (:class:`acc_fusion.sensors.driver_monitor.DriverMonitor`).  For the drivers it reports
-    attentive it computes its distances with ``reaction_time`` in place of the model's
-    reaction time; for the others it keeps the model's timing.  The model's timing also
-    holds for every driver of a run whose drivers have no gaze to watch (no eyes-off-road
-    episodes, ``driver.distraction.rate`` 0: the NHTSA and Euro NCAP tests, the 2-D world)
-    and the gymnasium environment's oracle.
-    Only a model with a ``reaction_time`` parameter (``required_deceleration``) can adapt;
-    enabling it with another is a one-line error.
+    Two signals tell the warning that a driver attends: a driver-monitoring camera
+    (:class:`acc_fusion.sensors.driver_monitor.DriverMonitor`, ``enabled``) that sees his
+    eyes on the road, and his own braking (``braking``): a driver who brakes at
+    :math:`-a_\text{ego} \ge` ``braking`` has already reacted.  For the drivers either
+    signal reports attentive the warning computes its distances with ``reaction_time`` in
+    place of the model's reaction time; for the others it keeps the model's timing.  So a
+    braking driver is still warned when even an attentive reaction would need more than the
+    model's deceleration threshold: the braking signal retimes the warning, it does not
+    suppress it.  Production systems read the driver's action the same way (e.g. the
+    Jaguar I-Pace owner's manual: the forward alert "may not issue the warning if the driver
+    has taken the appropriate action (braking, steering or indicating) early enough").  The
+    camera only runs where the drivers have a gaze to watch
+    (eyes-off-road episodes, ``driver.distraction.rate`` > 0; not in the NHTSA and Euro NCAP
+    tests); the braking signal runs wherever the warning sees the ego's acceleration (every
+    closed or open loop of :func:`acc_fusion.sim.closed_loop.simulate` and ``acc-fusion
+    tune``), but not in the 2-D world or the gymnasium environment's oracle, which keep the
+    model's timing.
+    Only a model with a ``reaction_time`` parameter (``required_deceleration``) can adapt:
+    enabling the camera with another is a one-line error, and the braking signal leaves the
+    others' timing as it is.
 
     The idea is the adaptive safety warning of NHTSA's SAVE-IT programme (M. R. Smith,
     G. J. Witt, D. L. Bakowski, *SAVE-IT Summary and Benefits Estimation*, Task 15 final
@@ -72,13 +84,14 @@ class AdaptiveConfig:
     attentive driver could not be read here; the attentive reaction time below is this
     project's choice.  Every new car sold in the EU from 7 July 2026 has the camera, as its
     advanced driver distraction warning (Regulation (EU) 2019/2144, Art. 6; Commission
-    Delegated Regulation (EU) 2023/2590).  Off by default: what it costs in crashes depends
+    Delegated Regulation (EU) 2023/2590).  The camera is off by default (the braking
+    signal is on): what it costs in crashes depends
     on how an attentive driver meets a threat by himself, which the truth sources model
     differently (SUMO's car-following model against the scripted driver's reaction time;
     docs/theory/alert-classes.md).
 
     Attributes:
-        enabled: whether the warning adapts (default False).
+        enabled: whether the warning reads the driver-monitoring camera (default False).
         reaction_time: brake reaction time assumed for an attentive driver [s] (default 0.75:
             Green, "How long does it take to stop?", *Transportation Human Factors*
             2(3):195-216, 2000, about 0.7-0.75 s for a driver fully aware of the time and
@@ -87,17 +100,41 @@ class AdaptiveConfig:
             :mod:`acc_fusion.sensors.driver_monitor`).
         recovery: how long a driver still counts as distracted after his eyes come back [s]
             (default 1.0, an assumption; same module).
+        braking: the deceleration [m/s²] from which a braking driver counts as attentive,
+            read from the vehicle's own (true) acceleration as a brake switch would report
+            it; 0: braking is not a signal.  Default 1.0, an assumption of this project (no
+            brake-switch threshold for FCW was found published): above the 0.3-0.7 m/s² that
+            rolling and air resistance and engine drag give a passenger car coasting at
+            motorway speeds, so a driver who decelerates harder is braking.
     """
 
     enabled: bool = False
     reaction_time: float = 0.75
     latency: float = 0.2
     recovery: float = 1.0
+    braking: float = 1.0
 
     def __post_init__(self) -> None:
         check_range("warning.adaptive.reaction_time", self.reaction_time, 0.0, 10.0)
         check_range("warning.adaptive.latency", self.latency, 0.0, 60.0)
         check_range("warning.adaptive.recovery", self.recovery, 0.0, 60.0)
+        check_range("warning.adaptive.braking", self.braking, 0.0, 20.0)
+
+    @property
+    def active(self) -> bool:
+        """Whether any signal adapts the timing (the camera or braking)."""
+        return self.enabled or self.braking > 0
+
+    def attentive(self, looking: np.ndarray | None, ego_accel: np.ndarray) -> np.ndarray | None:
+        """``(N,)`` bool, the drivers the warning times as attentive: those the camera reports
+        ``looking`` (``(N,)`` bool, or ``None`` without a camera) or who brake at
+        ``braking`` or harder (``ego_accel (N,)`` [m/s²]); ``None`` when nothing adapts."""
+        if not self.active:
+            return None
+        braking = np.asarray(ego_accel) <= -self.braking if self.braking > 0 else None
+        if looking is None or braking is None:
+            return looking if braking is None else braking
+        return looking | braking
 
 
 @dataclass(frozen=True)
@@ -108,9 +145,10 @@ class WarningConfig:
         model: safety-distance model, a name of :data:`acc_fusion.warning.safety.SAFETY_MODELS`
             (default ``"required_deceleration"``, CAMP's rule, which reads the lead's
             closing speed and deceleration: in the bundled motorway's traffic it raises
-            5.6 nuisance and sensing-false alerts per 100 km (2.7 with ``adaptive``) against
-            70 for the papers' ``"stopping_distance"``, which stays on in close following;
-            see docs/theory/alert-classes.md).
+            2.6 nuisance and sensing-false alerts per 100 km over five seeds (1.3 with the
+            camera of ``adaptive``) against 70 for the papers' ``"stopping_distance"`` on
+            one seed, which stays on in close following; see
+            docs/theory/alert-classes.md).
         params: that model's parameter dataclass (e.g.
             :class:`~acc_fusion.warning.safety_params.MazdaParams`), a mapping of its fields (from
             TOML or YAML), or ``None`` for its defaults.
@@ -126,7 +164,16 @@ class WarningConfig:
             (docs/theory/alert-classes.md); the value is this project's, an assumption.
         z: compare the lower quantile :math:`g - z\\sigma_g` of the estimated gap instead of
             the gap (default 0: the gap itself).
-        adaptive: driver-state-adaptive timing (:class:`AdaptiveConfig`; off by default).
+        adaptive: driver-state-adaptive timing (:class:`AdaptiveConfig`: the driver's
+            braking by default, the driver-monitoring camera on request).
+        min_speed: the warning is off below this ego speed [m/s] (default 2.8, 10 km/h):
+            FCW is a warning for moving traffic, not for creeping in a queue, where the
+            gaps sit at the standstill margin and the estimated closing speed's noise
+            would decide the alerts.  ISO 15623:2013 keeps the system in standby, with no
+            warning, until the speed is within its operating range; production minimums
+            range from 2 km/h (2019 Dodge Durango owner's manual) to 15-16 km/h (Infiniti,
+            Chrysler manuals), and China's GB/T 33577-2017 requires a minimum of at most
+            11.2 m/s.  10 km/h within that range is this project's choice, an assumption.
     """
 
     model: str = "required_deceleration"
@@ -137,6 +184,7 @@ class WarningConfig:
     persistence: float = 0.0
     z: float = 0.0
     adaptive: AdaptiveConfig = AdaptiveConfig()
+    min_speed: float = 2.8
 
     def __post_init__(self) -> None:
         check_choice("warning.model", self.model, SAFETY_MODELS)
@@ -152,6 +200,7 @@ class WarningConfig:
         check_range("warning.min_on_time", self.min_on_time, 0.0, 60.0)
         check_range("warning.z", self.z, 0.0, 10.0)
         check_range("warning.persistence", self.persistence, 0.0, 10.0)
+        check_range("warning.min_speed", self.min_speed, 0.0, 100.0)
         if self.persistence > 0 and self.confirm is not None:
             raise ConfigError("warning.persistence and warning.confirm exclude each other")
         if self.confirm is not None:
@@ -196,8 +245,8 @@ class WarningLogic(PairState):
         self.dt = check_range("warning.dt", dt, 0.0, 10.0, lo_open=True)
         self._model, self._constants = model_constants(config.model, config.params)
         self._attentive = None  # the constants for an attentive driver (adaptive timing)
-        if config.adaptive.enabled:
-            params = config.params or SAFETY_MODELS[config.model][1]()
+        params = config.params or SAFETY_MODELS[config.model][1]()
+        if config.adaptive.active and hasattr(params, "reaction_time"):
             params = replace(params, reaction_time=config.adaptive.reaction_time)
             self._attentive = model_constants(config.model, params)[1]
         k = 1 + math.floor(config.persistence / self.dt + 0.5)  # to the nearest step
@@ -238,9 +287,9 @@ class WarningLogic(PairState):
                 need it).
             gap_std: standard deviation of the gap [m], ``(N,)``, or ``None`` for an exact gap.
             valid: ``(N,)`` pairs with a track (or, on truth, a leader); ``None`` = all.
-            attentive: ``(N,)`` bool, the drivers a driver monitor reports attentive; with
-                :attr:`WarningConfig.adaptive` enabled their distances use the attentive
-                reaction time (:class:`AdaptiveConfig`); ``None``: nobody.
+            attentive: ``(N,)`` bool, the drivers timed as attentive
+                (:meth:`AdaptiveConfig.attentive`); with :attr:`WarningConfig.adaptive`
+                active their distances use the attentive reaction time; ``None``: nobody.
         """
         n = self.n_pairs
         ok = np.ones(n, dtype=bool) if valid is None else check_mask("valid", valid, n)
@@ -257,6 +306,8 @@ class WarningLogic(PairState):
             check_array("v_ego", v, (n,), where=ok)
             check_array("v_rel", rel, (n,), where=ok)
             check_array("a_lead", acc, (n,), where=ok)
+        if cfg.min_speed > 0:
+            ok = ok & (v >= cfg.min_speed)
         d_caution, d_imminent = distances_unchecked(self._model, self._constants, v, rel, acc)
         if self._attentive is not None and attentive is not None:
             looking = check_mask("attentive", attentive, n)

@@ -128,9 +128,17 @@ def _required_deceleration(v, vl, vc, b, c):  # pragma: no cover - compiled
     ``_constants``)."""
     reaction_time, decel_caution, decel_imminent, d0 = c[:4]
     return (
-        d0 + _closest_approach(v, vl, b, reaction_time, decel_caution),
-        d0 + _closest_approach(v, vl, b, reaction_time, decel_imminent),
+        _approach_margin(d0, _closest_approach(v, vl, b, reaction_time, decel_caution)),
+        _approach_margin(d0, _closest_approach(v, vl, b, reaction_time, decel_imminent)),
     )
+
+
+@njit(cache=True)
+def _approach_margin(d0, closing):  # pragma: no cover - compiled
+    """The distance of :func:`_required_deceleration` for a largest ``closing`` [m]: ``d0``
+    more than the closing where the gap would shrink, 0 where it would not (no deceleration
+    is required there, whatever the gap)."""
+    return d0 + closing if closing > 0.0 else 0.0
 
 
 @njit(cache=True)
