@@ -130,7 +130,7 @@ def test_a_braking_driver_counts_as_attentive_with_or_without_the_camera():
 
 
 def test_a_braking_driver_is_warned_with_the_attentive_timing_but_still_warned():
-    """A lead braking at 4 m/s² from 30 m/s at 30 m, the ego braking at 2 m/s² from the start:
+    """A lead braking at 4 m/s² from 30 m/s at 20 m, the ego braking at 2 m/s² from the start:
     with ``braking`` the imminent alert comes later than without, but it comes (an attentive
     reaction is not enough there)."""
     first = {}
@@ -156,6 +156,17 @@ def test_the_braking_signal_leaves_a_model_without_a_reaction_time_as_it_is():
         got = braked.step([gap] * 2, 20.0, -8.0, attentive=np.array([True, False]))
         np.testing.assert_array_equal(got, plain.step([gap] * 2, 20.0, -8.0))
     assert braked.level.max() > 0
+
+
+def test_the_attentive_timing_never_warns_earlier_than_the_model():
+    """With a model reaction time shorter than the attentive one, an attentive driver keeps
+    the model's timing."""
+    quick = RequiredDecelerationParams(reaction_time=0.5)
+    cfg = WarningConfig(params=quick, adaptive=AdaptiveConfig(braking=1.0))
+    logic, plain = WarningLogic(cfg, 1, DT), WarningLogic(replace(cfg, adaptive=NONE), 1, DT)
+    for gap in np.linspace(40.0, 5.0, 30):
+        got = logic.step([gap], 20.0, -8.0, attentive=np.array([True]))
+        np.testing.assert_array_equal(got, plain.step([gap], 20.0, -8.0))
 
 
 def test_bad_braking_settings_are_one_line_errors():

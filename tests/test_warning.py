@@ -257,12 +257,30 @@ def test_reset_by_indices_equals_reset_by_mask_and_clears_only_those_pairs():
 
 
 def test_no_warning_below_the_minimum_speed():
-    """A queue creeping at 2 m/s with the gap under the margin: off below ``min_speed``
-    (and its state cleared), on at the same gap and closing speed above it."""
-    logic = WarningLogic(WarningConfig(), 2, 0.1)
-    v_ego = np.array([2.0, 3.0])
-    assert list(logic.step([1.5, 1.5], v_ego, -0.5)) == [NONE, IMMINENT]
+    """A queue creeping at 2 m/s with the gap under the margin: off below ``min_speed``,
+    on at the same gap and closing speed above it; 10 km/h itself warns."""
+    logic = WarningLogic(WarningConfig(), 3, 0.1)
+    v_ego = np.array([2.0, 3.0, 10.0 / 3.6])
+    assert list(logic.step([1.5] * 3, v_ego, -0.5)) == [NONE, IMMINENT, IMMINENT]
     slow = WarningLogic(WarningConfig(min_speed=0.0), 1, 0.1)
     assert list(slow.step([1.5], 2.0, -0.5)) == [IMMINENT]
+
+
+def test_slowing_below_the_minimum_speed_clears_a_held_warning():
+    """A level held by ``min_on_time`` drops at once below ``min_speed``, and its state is
+    cleared: back above it with nothing to warn about, it does not come back."""
+    logic = WarningLogic(WarningConfig(min_on_time=1.0), 1, 0.1)
+    assert list(logic.step([1.5], 3.0, -0.5)) == [IMMINENT]
+    assert list(logic.step([1.5], 3.0, 1.0)) == [IMMINENT]  # held: the gap opens
+    assert list(logic.step([1.5], 2.0, 1.0)) == [NONE]  # below 10 km/h
+    assert list(logic.step([1.5], 3.0, 1.0)) == [NONE]  # the hold did not survive
+
+
+def test_no_level_where_no_distance_is_needed_even_on_a_negative_lower_quantile():
+    """An opening range (distance 0) with a gap estimate so uncertain that its lower
+    quantile is below 0: no warning."""
+    logic = WarningLogic(WarningConfig(z=1.0), 1, 0.1)
+    assert list(logic.step([1.0], 20.0, 2.0, gap_std=[2.0])) == [NONE]
+    assert list(logic.step([1.0], 20.0, -2.0, gap_std=[2.0])) == [IMMINENT]
     with pytest.raises(ConfigError, match=r"warning.min_speed must be in \[0, 100\]"):
         WarningConfig(min_speed=-1.0)

@@ -46,6 +46,7 @@ from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.slots import PairState, pair_mask
+from acc_fusion.core.units import KMH
 from acc_fusion.core.validation import check_array, check_choice, check_mask, check_range
 from acc_fusion.warning.safety import SAFETY_MODELS, model_constants
 from acc_fusion.warning.safety_kernels import distances_unchecked
@@ -60,7 +61,8 @@ class AdaptiveConfig:
     eyes on the road, and his own braking (``braking``): a driver who brakes at
     :math:`-a_\text{ego} \ge` ``braking`` has already reacted.  For the drivers either
     signal reports attentive the warning computes its distances with ``reaction_time`` in
-    place of the model's reaction time; for the others it keeps the model's timing.  So a
+    place of the model's reaction time (or the model's, if shorter: the attentive timing
+    never warns earlier); for the others it keeps the model's timing.  So a
     braking driver is still warned when even an attentive reaction would need more than the
     model's deceleration threshold: the braking signal retimes the warning, it does not
     suppress it.  Production systems read the driver's action the same way (e.g. the
@@ -145,9 +147,9 @@ class WarningConfig:
         model: safety-distance model, a name of :data:`acc_fusion.warning.safety.SAFETY_MODELS`
             (default ``"required_deceleration"``, CAMP's rule, which reads the lead's
             closing speed and deceleration: in the bundled motorway's traffic it raises
-            2.6 nuisance and sensing-false alerts per 100 km over five seeds (1.3 with the
-            camera of ``adaptive``) against 70 for the papers' ``"stopping_distance"`` on
-            one seed, which stays on in close following; see
+            2.8 nuisance and sensing-false alerts per 100 km over ten seeds (1.3 with the
+            camera of ``adaptive``, five seeds) against 70 for the papers'
+            ``"stopping_distance"`` on one seed, which stays on in close following; see
             docs/theory/alert-classes.md).
         params: that model's parameter dataclass (e.g.
             :class:`~acc_fusion.warning.safety_params.MazdaParams`), a mapping of its fields (from
@@ -166,7 +168,7 @@ class WarningConfig:
             the gap (default 0: the gap itself).
         adaptive: driver-state-adaptive timing (:class:`AdaptiveConfig`: the driver's
             braking by default, the driver-monitoring camera on request).
-        min_speed: the warning is off below this ego speed [m/s] (default 2.8, 10 km/h):
+        min_speed: the warning is off below this ego speed [m/s] (default 10 km/h, 2.78):
             FCW is a warning for moving traffic, not for creeping in a queue, where the
             gaps sit at the standstill margin and the estimated closing speed's noise
             would decide the alerts.  ISO 15623:2013 keeps the system in standby, with no
@@ -184,7 +186,7 @@ class WarningConfig:
     persistence: float = 0.0
     z: float = 0.0
     adaptive: AdaptiveConfig = AdaptiveConfig()
-    min_speed: float = 2.8
+    min_speed: float = 10.0 * KMH
 
     def __post_init__(self) -> None:
         check_choice("warning.model", self.model, SAFETY_MODELS)
@@ -247,8 +249,8 @@ class WarningLogic(PairState):
         self._attentive = None  # the constants for an attentive driver (adaptive timing)
         params = config.params or SAFETY_MODELS[config.model][1]()
         if config.adaptive.active and hasattr(params, "reaction_time"):
-            params = replace(params, reaction_time=config.adaptive.reaction_time)
-            self._attentive = model_constants(config.model, params)[1]
+            late = min(params.reaction_time, config.adaptive.reaction_time)  # never earlier
+            self._attentive = model_constants(config.model, replace(params, reaction_time=late))[1]
         k = 1 + math.floor(config.persistence / self.dt + 0.5)  # to the nearest step
         self._k, self._n = config.confirm or (k, k)
         # Steps a raised level is held: on for at least ceil(min_on_time / dt) steps.
@@ -383,7 +385,7 @@ def _latch(
         lower = gap[i] - z * gap_std[i]
         d[0], d[1] = d_caution[i], d_imminent[i]
         for lv in range(2):
-            cond = lower < d[lv]
+            cond = lower < d[lv] and d[lv] > 0.0  # d = 0: no distance is needed at all
             count[lv, i] += np.int64(cond) - np.int64(history[lv, i, slot])
             history[lv, i, slot] = cond
             steps_on[lv, i] += np.int64(on[lv, i])

@@ -259,18 +259,21 @@ def required_deceleration(
 
     .. math::
 
-        d_L = d_0 + \max_{t \ge 0}\left[x_\text{ego}(t; t_r, a_L) - x_\text{lead}(t; b)\right]_+
+        d_L = d_0 + \max_{t \ge 0}\left[x_\text{ego}(t; t_r, a_L) - x_\text{lead}(t; b)\right]
+        \text{ where that maximum is positive, else } d_L = 0,
 
     where both vehicles stop at zero speed.  The maximum (the closest approach) is where the
     speeds become equal, :math:`t^* = (v_l - v - a_L t_r)/(b - a_L)`, or at a stop; e.g. for a
     stopped lead :math:`d_L = d_0 + v t_r + v^2/(2a_L)`.  Where the gap would not shrink at
     all (the maximum is 0: steady or opening range, :math:`v_l \ge v`, and a lead that does
     not brake) no deceleration is required, so :math:`d_L = 0` and the rule is off whatever
-    the gap: the margin :math:`d_0` is what an approach must leave, not a gap a driver must
-    keep.  Without that, a gap just under :math:`d_0` raised the imminent level however it
-    moved: a car that cut in close and pulls away, a queue at standstill (SUMO's drivers
-    keep exactly ``minGap`` = :math:`d_0` = 2.5 m there, and the estimated gap's noise dipped
-    under it; most sensing-false alerts of ``make run``'s traffic, docs/theory/alert-classes.md).
+    the gap (:class:`~acc_fusion.warning.logic.WarningLogic` raises no level where
+    :math:`d_L = 0`, even where the compared lower quantile of the gap is below 0): the
+    margin :math:`d_0` is what an approach must leave, not a gap a driver must keep.
+    Without that, a gap just under :math:`d_0` raised the imminent level however it moved: a
+    car that cut in close and pulls away, a queue at standstill (SUMO's drivers keep exactly
+    ``minGap`` = :math:`d_0` = 2.5 m there, and the estimated gap's noise dipped under it;
+    most sensing-false alerts of ``make run``'s traffic, docs/theory/alert-classes.md).
     Defaults in :class:`RequiredDecelerationParams`.
     """
     return _distances("required_deceleration", v_ego, v_rel, a_lead, params)
