@@ -140,12 +140,12 @@ def rule_on_truth(recording: Recording, config: SimConfig) -> FCWSummary:
         monitor = DriverMonitor(n, adaptive.latency, adaptive.recovery)
     looked = np.zeros(n, dtype=bool)
     metrics = FCWMetrics(n, dt, config.tolerance, config.warn_level)
-    buf = np.zeros((6, n))
+    buf = np.zeros((5, n))
     flags = np.zeros((3, n), dtype=bool)
     t = 0.0
     for t, gap, v, vl, al, has, active, new, eyes, ae in recording.steps:
         k = gap.size
-        g, ve, vle, ale, aeg, _ = buf
+        g, ve, vle, ale, aeg = buf
         h, act, fresh = flags
         g[:k], ve[:k], vle[:k], ale[:k], aeg[:k] = gap, v, vl, al, ae
         h[:k], act[:k], fresh[:k] = has, active, new

@@ -313,10 +313,10 @@ class WarningLogic(PairState):
         d_caution, d_imminent = distances_unchecked(self._model, self._constants, v, rel, acc)
         if self._attentive is not None and attentive is not None:
             looking = check_mask("attentive", attentive, n)
-            if looking.any():
-                late = distances_unchecked(self._model, self._attentive, v, rel, acc)
-                d_caution = np.where(looking, late[0], d_caution)
-                d_imminent = np.where(looking, late[1], d_imminent)
+            idx = np.flatnonzero(looking)
+            if idx.size:  # the attentive timing, for those drivers only
+                late = distances_unchecked(self._model, self._attentive, v[idx], rel[idx], acc[idx])
+                d_caution[idx], d_imminent[idx] = late
 
         level = np.empty(n, dtype=np.int8)
         _latch(
