@@ -64,9 +64,14 @@ def _filterpy_reference(config: EgoFilterConfig, speed0: float) -> KalmanFilter:
     return kf
 
 
-@pytest.mark.parametrize("config", [EgoFilterConfig(), EgoFilterConfig.yang2009()])
+@pytest.mark.parametrize(
+    "config",
+    [EgoFilterConfig(), EgoFilterConfig.yang2009(), EgoFilterConfig(interval_accel=True)],
+)
 def test_batched_filter_equals_filterpy(config: EgoFilterConfig) -> None:
-    """Same data ⇒ same estimates and covariances as filterpy, with dropouts and a reset."""
+    """Same data ⇒ same estimates and covariances as filterpy, with dropouts and a reset
+    (the prediction to sample k with the reading of sample k-1, or of sample k when it is
+    the mean over the interval)."""
     n, steps, reset_at = 4, 300, 150
     rng = np.random.default_rng(7)
     accel = rng.normal(0.3, 1.0, (steps, n))
@@ -88,7 +93,7 @@ def test_batched_filter_equals_filterpy(config: EgoFilterConfig) -> None:
         v_est, b_est = filt.step(accel[k], speed[k], valid[k])
         for i, kf in enumerate(refs):
             if not fresh[i]:
-                kf.predict(u=accel[k - 1, i])
+                kf.predict(u=accel[k if config.interval_accel else k - 1, i])
             if valid[k, i]:
                 kf.update(speed[k, i])
             fresh[i] = False

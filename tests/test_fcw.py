@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.sim.closed_loop import SimConfig, simulate
+from acc_fusion.sim.closed_loop import Perception, SimConfig, simulate
 from acc_fusion.studies.compare import compare, compare_config, conformance
+from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.warning.logic import WarningConfig
 
 #: The papers' rule: the fused gap against the stopping distance.  (The calibrated default
@@ -115,3 +116,34 @@ def test_track_inputs_kernel_matches_its_numpy_form():
         np.where(ok, np.sqrt(np.where(ok, p[:, 0, 0], 0.0)), 0.0),
     ]
     assert np.array_equal(out, np.array(expected))
+
+
+def test_the_estimators_predict_with_the_acceleration_of_the_step_they_predict():
+    """A frame's ego acceleration is the one over the step that ended at it (SUMO's
+    ``getAcceleration``): an ego that brakes at 7 m/s² and then accelerates at 2.6 m/s²
+    behind a lead at constant speed, at A10KW's 0.5 s step, must not make the filters read
+    the change of its own acceleration as the lead's."""
+    dt, n = 0.5, 40
+    cfg = SimConfig(runs=1, dt=dt, methods=("centralized", "federated"))
+    perception = Perception(cfg, n, np.random.SeedSequence(3))
+    accel = np.r_[np.zeros(10), np.full(4, -7.0), np.full(10, 2.6)]  # over each step
+    speed = 30.0 + np.cumsum(accel) * dt
+    position = np.cumsum(speed) * dt
+    worst = dict.fromkeys(cfg.methods, 0.0)
+    for k in range(accel.size):
+        frame = TruthFrame.from_arrays(
+            t=k * dt,
+            ego_speed=np.full(n, speed[k]),
+            ego_accel=np.full(n, accel[k]),
+            gap=np.full(n, 60.0 + 30.0 * k * dt - position[k]),
+            lead_speed=np.full(n, 30.0),
+            lead_accel=np.zeros(n),
+            leader_id=np.ones(n, dtype=np.int64),
+        )
+        seen = perception.step(frame, np.ones(n, dtype=bool))
+        if k > 10:  # the filters have converged; the ego's acceleration changes from here
+            for m, est in seen.estimates.items():
+                lead = np.median(est.x[:, 2])  # the estimated lead acceleration [m/s²]
+                worst[m] = max(worst[m], abs(lead))
+    # One step late, the change of -7 and then of +9.6 m/s² came out as the lead's (-8.9).
+    assert max(worst.values()) < 1.0, worst

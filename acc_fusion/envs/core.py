@@ -74,7 +74,6 @@ class _Core:
         brake = self.driver.step(action, self.seen.frame)
         was = self.source.collided
         self.source.advance(brake)
-        self.perception.advanced()
         self.steps += 1
         self.collided = self.source.collided & ~was
         reward = self.reward.reward(action, self.seen.oracle, self.collided, self.dt)

@@ -156,8 +156,10 @@ class Estimator(PairState, ABC):
     ) -> Estimate:
         """Advance every pair by one step with this step's measurements (one per sensor).
 
-        ``ego_accel (N,)`` is the ego's measured acceleration over the coming step [m/s²]:
-        the known input of the motion model (:func:`acc_fusion.core.motion.ego_input`).
+        ``ego_accel (N,)`` is the ego's measured acceleration [m/s²] over the step this call
+        predicts, from the previous measurements to these
+        (:attr:`~acc_fusion.truth.frame.TruthFrame.ego_accel`): the known input of the motion
+        model (:func:`acc_fusion.core.motion.ego_input`).
         """
         z, r, valid, target_id = self._check(measurements, target_id)
         if ego_accel is not None:

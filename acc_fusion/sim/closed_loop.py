@@ -209,8 +209,6 @@ class Perception(PairState):
     :meth:`resize` makes it perceive the first m pairs only (:mod:`acc_fusion.core.slots`).
     """
 
-    _PAIR_AXES = {"_input": 0, "_accel_now": 0}
-
     def __init__(self, config: SimConfig, n: int, seeds: np.random.SeedSequence) -> None:
         cfg, dt = config, config.dt
         s_sensors, s_ego = seeds.spawn(2)
@@ -225,7 +223,7 @@ class Perception(PairState):
         for sensor in self.sensors:
             sensor.allocate(n)
         self._read_ego = _EgoSensors(n, np.random.default_rng(s_ego))
-        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt))
+        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / dt, interval_accel=True))
         # The accelerometer (offset removed by the ego filter) is the model's known input.
         fusion = replace(
             cfg.fusion, filter=replace(cfg.fusion.filter, dt=dt, ego_accel_std=ACCEL_STD)
@@ -235,8 +233,6 @@ class Perception(PairState):
             for m in cfg.methods
         }
         self.oracle = WarningLogic(cfg.warning, n, dt)
-        self._input = np.zeros(n)  # ego acceleration over the previous step
-        self._accel_now = np.zeros(n)
 
     def _resized(self, m: int) -> None:
         self.n = m
@@ -262,16 +258,12 @@ class Perception(PairState):
             self.forget(reassigned, wheel)
         meas = [s.measure(frame) for s in self.sensors]
         v_ego, bias = self.ego.step(accel, wheel)
-        self._accel_now = accel - bias
+        u = accel - bias  # over the step from the previous frame to this one
         oracle, ttc, relevant = judge(
             self.oracle, self.config.alert_classes, frame, active, attentive
         )
-        ests = {m: e.step(meas, frame.leader_id, self._input) for m, e in self.estimators.items()}
+        ests = {m: e.step(meas, frame.leader_id, u) for m, e in self.estimators.items()}
         return Perceived(frame, meas, v_ego, ests, oracle, ttc, relevant)
-
-    def advanced(self) -> None:
-        """The source moved one step: this step's acceleration is the next prediction's input."""
-        self._input = self._accel_now
 
 
 def judge(
@@ -431,7 +423,6 @@ def simulate(
                 source.advance(brake, hold)
             else:
                 source.advance(brake)
-            perception.advanced()
             steps += 1
             if source.done:
                 break

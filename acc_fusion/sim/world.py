@@ -111,8 +111,6 @@ class WorldPerception(PairState):
     makes it perceive the first m egos only (:mod:`acc_fusion.core.slots`).
     """
 
-    _PAIR_AXES = {"_input": 0}
-
     def __init__(self, config: SimConfig, n: int, seed: np.random.SeedSequence) -> None:
         s_sensors, s_ego, s_gyro = seed.spawn(3)
         world: WorldConfig = config.world
@@ -124,7 +122,7 @@ class WorldPerception(PairState):
         self.slots = self.associator.n_slots
         self._read_ego = _EgoSensors(n, np.random.default_rng(s_ego))
         self._gyro = np.random.default_rng(s_gyro)
-        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / config.dt))
+        self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / config.dt, interval_accel=True))
         filters = replace(config.fusion.filter, dt=config.dt, ego_accel_std=ACCEL_STD)
         # A fused object's R is the converted 2-D covariance of its detection, not the 1-D
         # spec's range law: it is used as reported.
@@ -138,7 +136,6 @@ class WorldPerception(PairState):
         self.pool = PairPool(pairs, pairs)  # object slot e·F + f → the estimators' pair
         self._pool_extent = Extent(pairs, quantum=POOL_QUANTUM)
         self.selectors = {m: InPathSelector(world.selection, n, self.slots) for m in config.methods}
-        self._input = np.zeros(n)  # each ego's acceleration over the coming step
         self._t_prev: float | None = None
 
     def _resized(self, m: int) -> None:
@@ -167,7 +164,6 @@ class WorldPerception(PairState):
         for selector in self.selectors.values():
             selector.forget(egos)
         self.ego.reset(egos, wheel)
-        self._input[egos] = 0.0
 
     def per_slot(self, est: Estimate) -> Estimate:
         """``est`` (over the pool's pairs) laid out over the E·F object slots, ego-major; a
@@ -207,12 +203,12 @@ class WorldPerception(PairState):
         self._free(freed)
         slots = self.pool.key_of[:p]
         measurements, target = fused_measurements(fused, tracks, detections, slots)
-        u = self._input[np.maximum(slots, 0) // self.slots]
+        # Each ego's acceleration over the step from the previous frame to this one.
+        u = (accel - bias)[np.maximum(slots, 0) // self.slots]
         out = {}
         for m, estimator in self.estimators.items():
             est = estimator.step(measurements, target, u)
             out[m] = self._select(m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active)
-        self._input[:] = accel - bias
         return out, v_ego
 
     def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active):

@@ -27,7 +27,11 @@ class TruthFrame:
     Attributes:
         t: simulation time [s].
         ego_speed: ego (follower) speed [m/s].
-        ego_accel: ego acceleration [m/s²].
+        ego_accel: the ego's acceleration over the step that ended at ``t`` [m/s²]: what its
+            accelerometer measured, the known input of the estimators' prediction from the
+            previous frame to this one (SUMO's ``getAcceleration``, highway-env's and the
+            scripted sources' speed difference over the step; a recorded data set's
+            acceleration at ``t``).
         gap: bumper-to-bumper distance to the leader [m]; ignored where there is no leader.
         lead_speed: leader speed [m/s].
         lead_accel: leader acceleration [m/s²].

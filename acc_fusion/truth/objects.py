@@ -66,7 +66,8 @@ class ObjectFrame:
     Attributes:
         t: simulation time [s].
         ego_speed: ego speed [m/s].
-        ego_accel: ego longitudinal acceleration [m/s²].
+        ego_accel: ego longitudinal acceleration over the step that ended at ``t`` [m/s²]
+            (:attr:`acc_fusion.truth.frame.TruthFrame.ego_accel`).
         ego_yaw_rate: ego yaw rate [rad/s], positive turning left.
         road_curvature: curvature of the ego's lane at the ego [1/m], positive to the left
             (what a lane-aware path prediction may use; 0 on a straight road).

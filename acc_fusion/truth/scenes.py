@@ -419,7 +419,7 @@ class SceneSource:
             accel = np.where(brake > 0.0, np.minimum(accel, -brake), accel)
         accel = np.where(self.collided, 0.0, accel)
         v_new = np.maximum(self._v + accel * dt, 0.0)
+        self._a = np.where(self.collided, 0.0, (v_new - self._v) / dt)  # over this step
         self._v = np.where(self.collided, v_lead, v_new)
-        self._a = np.where(self.collided, 0.0, accel)
         self._s += self._v * dt
         self.t += dt

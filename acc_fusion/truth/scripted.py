@@ -98,7 +98,8 @@ class ScenarioState:
     Attributes:
         t: time [s].
         ego_position: ego front-bumper position [m] (0 at the start).
-        ego_speed, ego_accel: ego speed [m/s] and acceleration over the next step [m/s²].
+        ego_speed, ego_accel: ego speed [m/s] and mean acceleration over the step that ended
+            at ``t`` [m/s²] (as SUMO reports it; 0 at a run's start).
         lead_position: leader rear-bumper position [m].
         lead_speed, lead_accel, lead_length: leader speed [m/s], acceleration [m/s²], length [m].
         gap: ``lead_position - ego_position`` [m] (bumper to bumper).
@@ -199,6 +200,7 @@ class ScenarioSource:
         self._reassigned = np.zeros(self.n_runs, dtype=bool)
         self._ego_x = np.zeros(self.n_runs)
         self._ego_v = plan.ego_speed.astype(float)
+        self._ego_a = np.zeros(self.n_runs)  # over the last step
         self._x = plan.position.astype(float)
         self._v = plan.speed.astype(float)
         self._brake = np.zeros(self.n_runs)
@@ -281,7 +283,7 @@ class ScenarioSource:
 
     def state(self) -> ScenarioState:
         """The full state of every run now."""
-        ego_a, target, rate = self._controls()
+        _, target, rate = self._controls()
         slot, has, gap, lat = self._leader()
         active = self.active
         show = has & (self._run_t <= self._end_time + TIME_TOL)
@@ -295,7 +297,7 @@ class ScenarioSource:
             t=self.t,
             ego_position=self._ego_x.copy(),
             ego_speed=self._ego_v.copy(),
-            ego_accel=np.where(active & ((self._ego_v > 0) | (ego_a > 0)), ego_a, 0.0),
+            ego_accel=self._ego_a.copy(),
             lead_position=lead(self._x[self._rows, slot]),
             lead_speed=lead(self._v[self._rows, slot]),
             lead_accel=lead(lead_a),
@@ -338,14 +340,11 @@ class ScenarioSource:
             self._ego_x, self._ego_v, np.where(ego_a < 0, 0.0, np.inf), np.abs(ego_a), self.dt
         )
         x, v = _ramp(self._x, self._v, target, rate, self.dt)
-        self._ego_x, self._ego_v = (
-            np.where(active, ego_x, self._ego_x),
-            np.where(active, ego_v, self._ego_v),
-        )
-        self._x, self._v = (
-            np.where(active[:, None], x, self._x),
-            np.where(active[:, None], v, self._v),
-        )
+        self._ego_a = np.where(active, (ego_v - self._ego_v) / self.dt, 0.0)
+        self._ego_x = np.where(active, ego_x, self._ego_x)
+        self._ego_v = np.where(active, ego_v, self._ego_v)
+        self._x = np.where(active[:, None], x, self._x)
+        self._v = np.where(active[:, None], v, self._v)
         self._braked |= active & (self._brake > 0)
         self._frame = None
         self._k += 1
@@ -405,6 +404,7 @@ class ScenarioSource:
         self._reassigned[idx] = True
         self._ego_x[idx] = 0.0
         self._ego_v[idx] = sub.ego_speed
+        self._ego_a[idx] = 0.0
         self._x[idx] = sub.position
         self._v[idx] = sub.speed
         self._brake[idx] = 0.0
