@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.fusion.config import FusionConfig
+from acc_fusion.fusion.config import FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
 from acc_fusion.sensors.faults import Fault
+from acc_fusion.sensors.sensor import Measurement
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source, lasting_bias
 
@@ -202,3 +203,31 @@ def test_a_bias_that_ends_is_forgotten_and_the_raw_radar_rejoins():
 def test_bad_bias_settings_are_one_line_errors(fields, match):
     with pytest.raises(ConfigError, match=match):
         FDIConfig(**fields)
+
+
+@pytest.mark.parametrize("engine", ["filterpy", "batched"])
+def test_an_acceleration_jump_spans_the_steps_since_every_report_was_used(engine):
+    """A lead brakes at 4.5 m/s². One step after the onset the radar's report fails the gate
+    and the camera's, 7 m long, passes it without confirming the radar; at the next step
+    both fail and the radar's passes against a jump of the acceleration. The jump came after
+    the last step whose reports were all used, two steps back: taken over one step, it read
+    two steps' range-rate error as the acceleration (-8.2 m/s² here)."""
+    dt, decel, onset = 0.1, -4.5, 40
+    cfg = FusionConfig(method="federated", engine=engine, filter=FilterConfig(dt=dt))
+    est = make_estimator(cfg, SENSOR_NAMES, 1)
+    std = np.array([[0.25, 0.05], [2.0, 1.0]])  # radar, camera: range [m], range-rate [m/s]
+    offset = {onset + 1: 7.0, onset + 2: 9.0}  # the camera's range error: passes, then fails
+    rng, on = np.random.default_rng(0), np.ones(1, dtype=bool)
+    for k in range(onset + 3):
+        tau = max(k - onset, 0) * dt
+        z = np.array([30.0 + 0.5 * decel * tau**2, decel * tau])
+        z = z + rng.normal(0.0, 1.0, (2, 2)) * std * (k < onset)  # exact from the onset
+        z[1, 0] += offset.get(k, 0.0)
+        reports = [
+            Measurement(k * dt, name, z[i][None], np.diag(std[i] ** 2)[None], on, ~on)
+            for i, name in enumerate(SENSOR_NAMES)
+        ]
+        out = est.step(reports, np.ones(1, dtype=np.int64))
+        if k == onset + 1:
+            assert abs(out.x[0, 1]) < 0.1  # the radar's -0.45 m/s was not used
+    assert out.x[0, 2] == pytest.approx(decel, abs=0.5)

@@ -30,15 +30,16 @@ local filter's own innovation with its information share undone).  Two tests use
   gate and no report confirms another, the sensors agree that the model is wrong, not that
   one of them is (two independent healthy sensors fail a 0.9999 gate together with
   probability 1e-8).  A report that passes the gate against the prior widened by a jump of
-  the relative acceleration during the step, :math:`P^- + \sigma_a^2 g g^\top` with
-  :math:`g = [T^2/2, T, 1]^\top` and :math:`\sigma_a` the filters' ``init_accel_std``
-  (Bar-Shalom, Li & Kirubarajan 2001, §11.2: a manoeuvre as a jump of the unknown input),
-  is used, and the priors take the widening before the update; it still counts in the
-  window.  A spike or a ghost jumps in range far beyond the widening (0.4 m at a 0.5 s
-  step).  Without it, at SUMO's 0.5 s step, the radar and the camera both failed the gate
-  after a lead's acceleration step, disagreed by the camera's noise, and the filter coasted
-  on a stale acceleration (A10KW: 12 of the federated filter's 354 sensing-false alerts);
-  a lead braking beyond the camera's range locked the radar out the same way.
+  the relative acceleration, :math:`P^- + \sigma_a^2 g g^\top` with :math:`g = [\tau^2/2,
+  \tau, 1]^\top` and :math:`\sigma_a` the filters' ``init_accel_std`` (Bar-Shalom, Li &
+  Kirubarajan 2001, §11.2: a manoeuvre as a jump of the unknown input), is used, and the
+  priors take the widening before the update; it still counts in the window.  The jump
+  came after the last step at which every report in the fusion was used: :math:`\tau` is
+  the time since, at least one step T and at most ``common_steps`` steps (at an onset the
+  radar may fail the gate a step before both do; a one-step jump then read two steps'
+  range-rate error as the acceleration, −9.5 m/s² against −4.5).  A spike or a ghost
+  jumps in range far beyond the widening (0.4 m at τ = 0.5 s).  Without the jump, sensors
+  failing together locked the filter onto a stale acceleration (docs/theory/federated.md).
 * **Window** (per sensor): the sum of the last W values
   :math:`\min(\epsilon_\nu, \epsilon_\times, \chi^2_m(p_c))`, is compared with
   :math:`\chi^2_{mW}(1-\alpha)` (reports confirmed beyond the gate stay out).  A failing

@@ -22,7 +22,7 @@ from acc_fusion.fusion.kernels import (
     _drop_pairs,
     _federated_step,
     _share_pairs,
-    jump_vector,
+    jump_vectors,
 )
 
 
@@ -31,7 +31,8 @@ class FederatedFilter(Estimator):
     ``plain`` = no sharing."""
 
     _PAIR_AXES = {
-        **Estimator._PAIR_AXES, "beta": 1, "_seen": 1, "_needed": 1, "_reported_at": 1
+        **Estimator._PAIR_AXES, "beta": 1, "_seen": 1, "_needed": 1, "_reported_at": 1,
+        "_agreed_at": 0,
     }  # fmt: skip
 
     def __init__(self, sensors, n_pairs, config, plain: bool = False, specs=None) -> None:
@@ -76,6 +77,7 @@ class FederatedFilter(Estimator):
         self._needed = np.zeros((s, n), dtype=bool)
         self._online_at = np.full(s, -np.inf)
         self._reported_at = np.full((s, n), -np.inf)
+        self._agreed_at = np.full(n, -np.inf)  # every report in the fusion was last used
         self._k = 0
 
     def _resized(self, m):
@@ -179,6 +181,7 @@ class FederatedFilter(Estimator):
             for s in s_all:
                 self.locals.assign(s, init, x0, p0, infl[s])
             ini = self.initialised = ini | init
+            self._agreed_at[init] = self._t
 
         if self.fdi is not None:  # a noise burst's adapted R, an estimated bias removed
             r = r * self.fdi.noise_scale.T[:, :, None, None]
@@ -190,20 +193,24 @@ class FederatedFilter(Estimator):
         )
         self._nis[:] = nis.T
         if self.fdi is not None:
-            var, g = self.fdi.accel_var, jump_vector(self.fdi.dt)
-            beyond = reporting & (nis > self.fdi.gate)
+            fdi, var = self.fdi, self.fdi.accel_var
+            g = jump_vectors(self._t, self._agreed_at, fdi.dt, fdi.config.common_steps)
+            beyond = reporting & (nis > fdi.gate)
             wide = np.full(nis.shape, np.inf)  # only reports beyond the gate are tested wide
             if beyond.any():
-                pw = pm + np.outer(var * g, g)
+                pw = pm + (var * g)[:, :, None] * g[:, None, :]
                 for s in s_all:
                     wide[s] = self.engine.nis(xm, pw, z[s], r[s], self.h, self._rows(beyond[s]))
                 wide[~beyond] = np.inf
-            accepted, rejoined, manoeuvre, jumped = self.fdi.step(nis.T, reporting.T, z, r, wide.T)
+            accepted, rejoined, manoeuvre, jumped = fdi.step(nis.T, reporting.T, z, r, wide.T)
             accepted, rejoined = accepted.T, rejoined.T
+            fused = reporting & ~fdi.isolated.T  # every report in the fusion used: agreement
+            agree = (accepted | ~fused).all(axis=0) & (accepted & fused).any(axis=0)
+            self._agreed_at[agree] = self._t
             if manoeuvre.any():
                 self._take_manoeuvre(manoeuvre)
             if jumped.any():
-                self._take_jump(jumped, var, g)
+                self._take_jump(jumped, var, g[jumped])
         else:
             accepted, rejoined = reporting, np.zeros_like(reporting)
         for s in s_all:
@@ -259,18 +266,17 @@ class FederatedFilter(Estimator):
             self.locals.assign(s, pairs, np.array(self.locals.x[s]), pl)
 
     def _take_jump(self, pairs: np.ndarray, var: float, g: np.ndarray) -> None:
-        r"""Add :math:`\sigma_a^2 g g^\top` (``var``, ``g``: an acceleration jump during the
-        step, :mod:`acc_fusion.fusion.fdi`) to the priors of the master and of every local
-        filter of ``pairs (N,)`` (the locals' times their inflation), in
-        :func:`_federated_step`'s order of operations."""
+        r"""Add :math:`\sigma_a^2 g g^\top` (``var``, ``g (P, 3)``: an acceleration jump of
+        each of the P ``pairs (N,)``, :mod:`acc_fusion.fusion.fdi`) to the priors of the
+        master and of every local filter of those pairs (the locals' times their inflation),
+        in :func:`_federated_step`'s order of operations."""
         pm = np.array(self.master.p[0])
-        pm[pairs] += np.outer(var * g, g)
+        pm[pairs] += (var * g)[:, :, None] * g[:, None, :]
         self.master.assign(0, pairs, np.array(self.master.x[0]), pm)
         infl = self._inflation()
         for s in range(self.n_sensors):
             pl = np.array(self.locals.p[s])
-            scale = var * infl[s][pairs]
-            pl[pairs] += (scale[:, None] * g)[:, :, None] * g
+            pl[pairs] += ((var * infl[s][pairs])[:, None] * g)[:, :, None] * g[:, None, :]
             self.locals.assign(s, pairs, np.array(self.locals.x[s]), pl)
 
     def _advance_batched(self, z, r, valid):
@@ -282,7 +288,7 @@ class FederatedFilter(Estimator):
         _federated_step(
             self.master.x[0], self.master.p[0], self.locals.x, self.locals.p, self.f, self.q,
             *input_args(self.b, self._u), self.h, z, r, valid, self.initialised,
-            self._reported_at, *self._track_arrays(),
+            self._reported_at, self._agreed_at, *self._track_arrays(),
             *(fdi.tests() if fdi is not None else _NO_TESTS),
             fdi.arrays()[9] if fdi is not None else _NO_FDI[9],
             self._inflate, self._feedback, self._increments, self.config.beta == "trace",

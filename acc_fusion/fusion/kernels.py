@@ -122,8 +122,8 @@ _NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0
 
 @njit(cache=True)
 def _federated_step(
-    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, beta, beta0, seen,
-    needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, agreed_at, beta, beta0,
+    seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
     clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
     trace, fuse_now,
     accel_var, t, coast_limit, nis, used,
@@ -132,7 +132,8 @@ def _federated_step(
 
     Master ``xm (N, n)``, ``pm (N, n, n)`` and locals ``xl (S, N, n)``, ``pl (S, N, n, n)``;
     measurements ``z (S, N, m)``, ``r (S, N, m, m)``, ``valid (S, N)``; track state
-    ``initialised (N,)``, ``reported_at``, ``beta``, ``seen``, ``needed (S, N)``; the fault
+    ``initialised (N,)``, ``agreed_at (N,)`` (the last step at which every report in the
+    fusion was used), ``reported_at``, ``beta``, ``seen``, ``needed (S, N)``; the fault
     detector's windows (``has_fdi``; arrays of :class:`~acc_fusion.fusion.fdi.WindowedChiSquare`).
     Writes the NIS against the master's prior ``nis (N, S)`` and the pairs that used a
     measurement ``used (N,)``.  The first pass runs each pair's predict, initialisation,
@@ -156,7 +157,7 @@ def _federated_step(
     manoeuvre = np.zeros(n_pairs, dtype=np.bool_)
     jump = np.zeros(n_pairs, dtype=np.bool_)
     wide = np.full((n_pairs, n_s), np.inf)
-    g, pw = jump_vector(var[3]), np.empty((n, n))
+    g, pw = np.empty(n), np.empty((n, n))
     active = np.zeros((n_s, n_pairs), dtype=np.bool_)
     any_rejoined = False
     for k in range(n_pairs):
@@ -187,6 +188,7 @@ def _federated_step(
                     assign_one(xl[s, k], pl[s, k], x0, p0, _inflation_one(beta[s, k], inflate))
                 initialised[k] = True
                 consumed[k, first] = True
+                agreed_at[k] = t
         ini = initialised[k]
         for s in range(n_s):
             if has_fdi:  # a noise burst's adapted R, an estimated bias removed
@@ -198,6 +200,7 @@ def _federated_step(
             else:
                 nis[k, s] = np.nan
             if has_fdi and reporting[k, s] and nis[k, s] > gate:  # against a jump's prior
+                _jump_one(t, agreed_at[k], var[3], common_steps, g)
                 _widen_one(pm[k], g, accel_var, pw)
                 wide[k, s] = nis_one(xm[k], pw, h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
         if has_fdi:
@@ -205,6 +208,12 @@ def _federated_step(
                        manoeuvre_first, var, buf, total, count, pos, isolated, verdict,
                        suspect, last, frozen, age, accepted, rejoined, manoeuvre, wide,
                        jump)  # fmt: skip
+            agree, took = True, False  # every report in the fusion used: the model agrees
+            for s in range(n_s):
+                if reporting[k, s] and not isolated[k, s]:
+                    agree, took = agree and accepted[k, s], took or accepted[k, s]
+            if agree and took:
+                agreed_at[k] = t
         else:
             accepted[k] = reporting[k]
         if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
@@ -257,11 +266,23 @@ def _federated_step(
                       verdict, suspect, last, frozen)  # fmt: skip
 
 
+@njit(cache=True, inline="always")
+def _jump_one(t, agreed_at, dt, steps, g):  # pragma: no cover - compiled
+    """``g`` :math:`= [\tau^2/2, \tau, 1]^\top`: what a jump of the relative acceleration
+    :math:`\tau` before ``t`` changes, with :math:`\tau` the time since ``agreed_at``, the
+    last step at which every report in the fusion was used, at least ``dt`` and at most
+    ``steps`` steps (:mod:`acc_fusion.fusion.fdi`, "Acceleration jump")."""
+    tau = max(min(t - agreed_at, steps * dt), dt)
+    g[0], g[1], g[2] = 0.5 * tau * tau, tau, 1.0
+
+
 @njit(cache=True)
-def jump_vector(dt):  # pragma: no cover - compiled
-    """:math:`g = [T^2/2, T, 1]^\top`: what a jump of the relative acceleration at the start
-    of a step of ``dt`` changes (:mod:`acc_fusion.fusion.fdi`, "Acceleration jump")."""
-    return np.array([0.5 * dt * dt, dt, 1.0])
+def jump_vectors(t, agreed_at, dt, steps):  # pragma: no cover - compiled
+    """:func:`_jump_one` of every pair: ``(N, 3)`` from ``agreed_at (N,)``."""
+    g = np.empty((agreed_at.size, 3))
+    for k in range(agreed_at.size):
+        _jump_one(t, agreed_at[k], dt, steps, g[k])
+    return g
 
 
 @njit(cache=True, inline="always")
