@@ -37,7 +37,8 @@ class Estimate:
 
     Attributes:
         t: time [s].
-        x: state estimates ``(N, 3)``: gap [m], range-rate [m/s], relative accel [m/s²].
+        x: state estimates ``(N, 3)``: gap [m], range-rate [m/s], the lead's acceleration
+            [m/s²] (the relative one without the ego's input; :mod:`acc_fusion.core.motion`).
         p: covariances ``(N, 3, 3)``.
         valid: ``(N,)`` pairs with an initialised track (``x`` is meaningless elsewhere).
         nis: ``(N, S)`` NIS of each sensor's measurement against the estimator's prediction
