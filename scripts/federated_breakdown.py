@@ -26,7 +26,11 @@ each method that are not shared (federated-only, centralized-only) by mechanism,
 median absolute estimation errors at onset (estimate minus truth).  ``isolated`` reads the
 federated filter's isolation flags for both methods.  Each method's line also gives the
 sensing-false count of the run's own metrics; the few alerts whose onset the hook did not
-see (about 3 %) are left out of the attribution.  Results: ``docs/theory/federated.md``.
+see (about 3 %) are left out of the attribution.  Per method it also prints the mean NIS of
+each sensor's reports against the method's prediction and the share beyond the gate: 2 and
+1e-4 for a consistent filter and healthy sensors, so a larger value is a model error (the
+ego's acceleration fed one step late gave 5.0 and 4.9 % on A10KW).  Results:
+``docs/theory/federated.md``.
 
     python scripts/federated_breakdown.py --sumocfg $SUMO_HOME/tools/game/A10KW.sumocfg --end 600
     python scripts/federated_breakdown.py --net motorway --end 300 --set fusion.fdi.manoeuvre=false
@@ -96,6 +100,9 @@ class Breakdown:
         self.leader = np.full(n, -1, dtype=np.int64)
         self.leader_since = np.full(n, -np.inf)
         self.reported_at = None
+        self.sensors: tuple[str, ...] = ()
+        # Per method and sensor: the sum of the NIS, the reports tested, those beyond the gate.
+        self.nis = {m: np.zeros((3, 0)) for m in METHODS}
 
     def __call__(self, view: StepView) -> None:
         frame, t = view.frame, view.frame.t
@@ -106,6 +113,8 @@ class Breakdown:
         new = np.zeros(k, dtype=bool) if new is None else new[:k]
         if self.reported_at is None:
             self.reported_at = np.full((len(view.measurements), len(src.active)), -np.inf)
+            self.sensors = tuple(meas.sensor for meas in view.measurements)
+            self.nis = {m: np.zeros((3, len(self.sensors))) for m in METHODS}
         resize_all(self.metrics.values(), k)
         self._forget(new)
         changed = frame.leader_id != self.leader[:k]
@@ -127,7 +136,10 @@ class Breakdown:
             var = np.where(est.valid, est.p[:, 2, 2], 0.0)
             self.manoeuvre_at[m][:k][var - self.accel_var[m][:k] > self.jump] = t
             self.accel_var[m][:k] = var
-            self.gated_at[m][:k][(np.nan_to_num(est.nis, nan=0.0) > self.gate).any(axis=1)] = t
+            nis = np.nan_to_num(est.nis, nan=0.0)
+            self.gated_at[m][:k][(nis > self.gate).any(axis=1)] = t
+            tested = np.isfinite(est.nis)
+            self.nis[m] += [nis.sum(axis=0), tested.sum(axis=0), (nis > self.gate).sum(axis=0)]
             metrics.update(t, view.levels[m], view.oracle, view.ttc, frame.ego_speed, active,
                            collided, view.relevant)  # fmt: skip
             self._record(m, view, k)
@@ -226,6 +238,14 @@ def report(brk: Breakdown, summaries, tolerance: float) -> str:
         sf = [a for a in alerts if a.kind == "sensing_false"]
         lines.append(f"{m}: {len(sf)} sensing-false alerts, {100 * len(sf) / km:.2f} per 100 km")
         lines.append(f"  (the run's own metrics: {summaries[m].sensing_false})")
+        total, tested, beyond = brk.nis[m]
+        ok = np.maximum(tested, 1)
+        lines.append(
+            "  mean NIS of the reports against its prediction (2 for a consistent filter): "
+            + ", ".join(f"{name} {v:.2f}" for name, v in zip(brk.sensors, total / ok, strict=True))
+            + "; beyond the gate: "
+            + ", ".join(f"{name} {v:.2%}" for name, v in zip(brk.sensors, beyond / ok, strict=True))
+        )
     for label, only in (("federated only", unshared(fed, cen, tolerance)),
                         ("centralized only", unshared(cen, fed, tolerance))):  # fmt: skip
         lines.append(f"\n{label}: {len(only)} ({100 * len(only) / max(km, 1e-9):.2f} per 100 km)")

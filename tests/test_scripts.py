@@ -126,3 +126,4 @@ def test_federated_breakdown_attributes_every_seen_alert():
     out = run("federated_breakdown.py", "--net", "motorway", "--end", "30").stdout
     assert "federated only:" in out and "centralized only:" in out
     assert out.count("the run's own metrics") == 2
+    assert out.count("mean NIS of the reports against its prediction") == 2
