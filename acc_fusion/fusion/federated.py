@@ -194,10 +194,10 @@ class FederatedFilter(Estimator):
         self._nis[:] = nis.T
         if self.fdi is not None:
             fdi, var = self.fdi, self.fdi.accel_var
-            g = jump_vectors(self._t, self._agreed_at, fdi.dt, fdi.config.common_steps)
             beyond = reporting & (nis > fdi.gate)
             wide = np.full(nis.shape, np.inf)  # only reports beyond the gate are tested wide
-            if beyond.any():
+            if beyond.any():  # (a jump needs a report beyond the gate)
+                g = jump_vectors(self._t, self._agreed_at, fdi.dt, fdi.config.common_steps)
                 pw = pm + (var * g)[:, :, None] * g[:, None, :]
                 for s in s_all:
                     wide[s] = self.engine.nis(xm, pw, z[s], r[s], self.h, self._rows(beyond[s]))
