@@ -22,12 +22,11 @@ from __future__ import annotations
 import argparse
 
 import gymnasium as gym
-from stable_baselines3 import PPO
 
 import acc_fusion  # noqa: F401  (registers the environment)
 from acc_fusion.envs.evaluation import compare_policies
 from acc_fusion.envs.policies import BASELINES
-from acc_fusion.envs.rl import ENV_ID, PPO_DEFAULTS, FCWFeatures
+from acc_fusion.envs.rl import ENV_ID, make_ppo
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -38,16 +37,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
 
     env = gym.make(ENV_ID)
-    model = PPO(
-        "MlpPolicy",
-        env,
-        n_steps=256,
-        batch_size=64,
-        seed=args.seed,
-        device="cpu",
-        policy_kwargs={"features_extractor_class": FCWFeatures, "net_arch": [64, 64]},
-        **PPO_DEFAULTS,
-    )
+    model = make_ppo(env, seed=args.seed, n_steps=256, batch_size=64)
     model.learn(total_timesteps=args.timesteps)
     env.close()
     print(f"trained PPO for {model.num_timesteps} steps")

@@ -339,13 +339,14 @@ PPO_DEFAULTS: dict[str, Any] = {
 
 
 def make_ppo(venv, seed: int | None = 0, n_steps: int = 128, verbose: int = 0, **overrides):
-    """A Stable-Baselines3 PPO agent for ``venv``: a 64-64 MLP (separate actor and critic) on
-    :class:`FCWFeatures`, minibatches of a quarter of the rollout, :data:`PPO_DEFAULTS`
-    (``overrides`` replace them and may set ``batch_size`` and ``policy_kwargs``)."""
+    """A Stable-Baselines3 PPO agent for ``venv`` (a vector environment, or one gymnasium
+    environment): a 64-64 MLP (separate actor and critic) on :class:`FCWFeatures`,
+    minibatches of a quarter of the rollout, :data:`PPO_DEFAULTS` (``overrides`` replace them
+    and may set ``batch_size`` and ``policy_kwargs``)."""
     from stable_baselines3 import PPO
 
     kwargs = {**PPO_DEFAULTS, **overrides}
-    rollout = n_steps * venv.num_envs
+    rollout = n_steps * getattr(venv, "num_envs", 1)
     kwargs.setdefault("batch_size", max(64, rollout // 4))
     kwargs.setdefault(
         "policy_kwargs", {"features_extractor_class": FCWFeatures, "net_arch": [64, 64]}
