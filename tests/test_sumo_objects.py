@@ -335,3 +335,39 @@ def test_conditions_need_the_world():
     args = build_parser().parse_args(["sumo", "--net", "motorway", "--conditions", "day"])
     with pytest.raises(ConfigError, match="add --world"):
         sumo_command(args)
+
+
+def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsys):
+    args = ["sumo", "--world", "--closed-loop", "--net", "motorway", "--end", "40",
+            "--conditions", "fog=60", "--out", str(tmp_path)]  # fmt: skip
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    for title in ("Alert classes (judged from truth), motorway.sumocfg",
+                  "Nuisance and sensing-false alerts by cause, SUMO motorway, FCW off",
+                  "Crashes FCW avoids, motorway.sumocfg"):  # fmt: skip
+        assert title in out
+    assert "day, fog 60 m" in out
+    data = json.loads((tmp_path / "sumo_motorway_seed0.json").read_text())
+    assert set(data["fcw_off"]) == {"radar", "infrared", "centralized", "federated"}
+    assert set(data["fcw_on"]) == {"federated"}  # the drivers heard the federated warnings
+    for run in ("fcw_off", "fcw_on"):
+        for method, s in data[run].items():
+            assert s["km"] > 0, method
+            for c in ("crash_relevant", "nuisance", "sensing_false"):
+                assert sum(s["by_cause"][c].values()) == s[c], (run, method, c)
+    assert (tmp_path / "sumo_motorway_seed0_causes.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("flags", "match"),
+    [
+        (["--closed-loop"], "add --world"),
+        (["--world", "--closed-loop", "--conditions", "day", "night"], "one condition"),
+        (["--world", "--all-drives"], "add it for --all-drives"),
+        (["--world", "--ssm"], "drop --gui, --ssm"),
+    ],
+)
+def test_bad_world_flags_are_one_error(flags, match):
+    args = build_parser().parse_args(["sumo", "--net", "motorway", *flags])
+    with pytest.raises(ConfigError, match=match):
+        sumo_command(args)

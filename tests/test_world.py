@@ -123,3 +123,36 @@ def test_warnings_during_a_sensor_fault_are_counted_under_fault_for_the_methods_
     assert faulted["radar"] == s["radar"].warnings > 0
     assert faulted["federated"] == s["federated"].warnings
     assert faulted["infrared"] == 0
+
+
+@pytest.mark.parametrize("warnings_on", [True, False])
+def test_closing_the_loop_the_driver_brakes_for_the_world_warnings_only_when_he_hears_them(
+    warnings_on,
+):
+    """With ``drive`` set, the 2-D pipeline's warnings reach the driver, who brakes on them;
+    with ``warnings_on`` false he never does, while the same method still warns."""
+    cfg = SimConfig(runs=10, methods=("federated",), seed=2, drive="federated")
+    cfg = replace(cfg, world=replace(cfg.world, scene="lead_brakes"))
+    braked, frames = np.zeros(cfg.runs, dtype=bool), set()
+
+    def hook(view):
+        braked[view.driver.braking] = True
+        frames.add(type(view.frame).__name__)
+
+    result = simulate_world(cfg, on_step=hook, warnings_on=warnings_on)
+    assert result.summaries["federated"].warnings >= 8  # the lead brakes hard in every run
+    assert frames == {"TruthFrame"}  # the driver and the hooks see the ego's true lead
+    assert braked.sum() >= 8 if warnings_on else not braked.any()
+
+
+def test_the_world_warning_retimes_for_a_braking_driver_as_the_1d_one_does():
+    """The default warning assumes the attentive reaction time for an ego braking at
+    ``warning.adaptive.braking`` or harder; the 2-D pipeline runs the same loop, so turning
+    the signal off makes its alerts earlier (here: more of them)."""
+    cfg = SimConfig(runs=10, methods=("federated",), seed=2)
+    cfg = replace(cfg, world=replace(cfg.world, scene="cut_out"))
+    off = replace(cfg, warning=replace(cfg.warning, adaptive=replace(
+        cfg.warning.adaptive, braking=0.0)))  # fmt: skip
+    with_signal = simulate_world(cfg).summaries["federated"]
+    without = simulate_world(off).summaries["federated"]
+    assert with_signal.nuisance < without.nuisance

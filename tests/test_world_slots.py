@@ -16,6 +16,8 @@ class Slots:
     """A scripted scene as slots: slot 3 never holds a vehicle, slot 0 gets a new one at
     ``new_at`` (the same scene run goes on: only the pipeline's memory is wiped)."""
 
+    slotted = True
+
     def __init__(self, config: SimConfig, new_at: int) -> None:
         seed = np.random.SeedSequence(config.seed).spawn(2)[0]  # as simulate_world seeds it
         scene = SceneConfig(scene=config.world.scene, runs=config.runs, dt=config.dt)

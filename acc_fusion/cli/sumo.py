@@ -1,9 +1,11 @@
 """``acc-fusion sumo``: FCW in SUMO traffic, FCW off and on on the same seed; with ``--world``
-the 2-D object pipeline in the same traffic, open loop, alerts by class and cause."""
+the 2-D object pipeline in the same traffic, open loop, alerts by class and cause, or with
+``--closed-loop`` as well FCW off and on, the drivers hearing the 2-D pipeline's warnings."""
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
@@ -19,7 +21,7 @@ from acc_fusion.cli.world import parse_conditions
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import output_dir, write_csv_atomic
 from acc_fusion.studies.traffic import sumo_study
-from acc_fusion.studies.world import sumo_world_study
+from acc_fusion.studies.world import WorldStudy, sumo_world_study
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
@@ -37,7 +39,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "paired by vehicle (bootstrap interval), and each crash of the FCW-off run replayed "
         "with every method's warnings (Wilson interval). "
         "The equipped drivers look away from the road now and then (--distraction). "
-        "With --world, the 2-D object pipeline instead, open loop (FCW off).",
+        "With --world, the 2-D object pipeline instead, open loop (FCW off); with "
+        "--world --closed-loop, FCW off and on as above with the 2-D pipeline's warnings.",
     )
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--net", help="bundled network: motorway, onramp, ring, arterial")
@@ -68,6 +71,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "cause",
     )
     p.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="with --world: FCW off and on, as without --world, the equipped drivers hearing "
+        "the 2-D pipeline's federated warnings (one condition); prints the same tables and the "
+        "FCW-off run's alerts by cause",
+    )
+    p.add_argument(
         "--conditions",
         nargs="+",
         metavar="C",
@@ -81,9 +91,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def run_world(args: argparse.Namespace, path, sumo_cfg) -> int:
-    """``acc-fusion sumo --world``: print the tables (and write them with ``--out``)."""
-    conditions = [parse_conditions(c) for c in args.conditions or ["day"]]
+def run_world(args: argparse.Namespace, path, sumo_cfg, conditions) -> int:
+    """``acc-fusion sumo --world``, open loop, once per condition: print the tables (and write
+    them with ``--out``)."""
     out = output_dir(args.out) if args.out else None
     study = sumo_world_study(sumo_cfg, sim_config(args, runs=1), conditions, progress=True)
     tables = {f"sumo_world_classes_{i}": t for i, t in enumerate(study.classes())}
@@ -109,29 +119,45 @@ def run_world(args: argparse.Namespace, path, sumo_cfg) -> int:
 def run(args: argparse.Namespace) -> int:
     """``acc-fusion sumo``: print the tables (and write them with ``--out``)."""
     path = resolve_sumocfg(args.net, args.sumocfg)
-    if args.conditions and not args.world:
-        raise ConfigError("--conditions is a setting of the 2-D pipeline; add --world")
-    if args.world and (args.gui or args.all_drives or args.ssm):
-        raise ConfigError("--world runs open loop and headless; drop --gui, --all-drives and --ssm")
+    for flag, given in (("--conditions", args.conditions), ("--closed-loop", args.closed_loop)):
+        if given and not args.world:
+            raise ConfigError(f"{flag} is a setting of the 2-D pipeline; add --world")
+    if args.world and (args.gui or args.ssm):
+        raise ConfigError("--world runs headless, without the SSM cross-check; drop --gui, --ssm")
+    if args.world and args.all_drives and not args.closed_loop:
+        raise ConfigError("--world runs open loop unless --closed-loop; add it for --all-drives")
+    conditions = [parse_conditions(c) for c in args.conditions or ["day"]]
+    if args.closed_loop and len(conditions) > 1:
+        raise ConfigError("--closed-loop runs one condition; give --conditions one value")
     sumo_cfg = traffic_config(
         args, path, seed=args.seed or 0, gui=args.gui, step_length=args.step_length
     )
-    if args.world:
-        return run_world(args, path, sumo_cfg)
+    if args.world and not args.closed_loop:
+        return run_world(args, path, sumo_cfg, conditions)
     out = output_dir(args.out) if args.out else None
     sim = traffic_sim_config(args)
+    if args.world:
+        sim = replace(sim, world=replace(sim.world, conditions=conditions[0]))
     drives = sim.methods if args.all_drives else ()
-    study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm)
+    study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=args.world)
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())
+    causes = None
+    if args.world:
+        runs = {(path.stem, conditions[0].label): study.off.summaries}
+        causes = WorldStudy(sim, runs, where=f"SUMO {path.stem}, FCW off").causes()
+        print("\n" + causes.format())
     print("\n" + study.benefits().format())
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
     if out is not None:
+        stem = f"sumo_{path.stem}_seed{sumo_cfg.seed}"
+        if causes is not None:
+            write_csv_atomic(out / f"{stem}_causes.csv", causes.columns, causes.rows)
         write_study(
             out,
-            f"sumo_{path.stem}_seed{sumo_cfg.seed}",
+            stem,
             table,
             study,
             sumocfg=str(path),

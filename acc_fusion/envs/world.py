@@ -21,12 +21,11 @@ from acc_fusion.envs.observation import (
 from acc_fusion.envs.options import RewardConfig
 from acc_fusion.metrics.summary import CAUSES
 from acc_fusion.sensors.suite import SENSOR_NAMES
-from acc_fusion.sim.closed_loop import SimConfig, judge
+from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import WorldPerception, alert_cause
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.driver import Driver
 from acc_fusion.truth.scenes import SCENES, SceneConfig, SceneSource
-from acc_fusion.warning.logic import WarningLogic
 
 #: The fusion methods whose estimates the observation can show: those that fuse the radar
 #: with the thermal camera, whose vehicle classification confirms stationary objects.
@@ -83,7 +82,6 @@ class _Episode:
         self.source = SceneSource(scene, np.random.default_rng(s_source))
         self.perception = _SeenPerception(config, 1, s_perception)
         self.selector = self.perception.selectors[self.method]
-        self.oracle = WarningLogic(config.warning, 1, config.dt)
         self.driver = Driver(1, config.driver, seed=np.random.default_rng(s_driver))
         slots = self.perception.slots
         self.object_id = np.full((1, slots), -1, dtype=np.int64)
@@ -113,12 +111,9 @@ class _Episode:
 
     def _perceive(self) -> None:
         frame = self.source.frame()
-        selected, self.v_ego = self.perception.step(frame, self.source.active)
-        self.frame, self.truth_id = frame, selected[self.method]["truth_id"]
-        self.lead = frame.lead_frame()
-        self.level, self.ttc, self.relevant = judge(
-            self.oracle, self.config.alert_classes, self.lead, self.source.active
-        )
+        p = self.perception.step(frame, self.source.active)
+        self.frame, self.truth_id, self.v_ego = frame, p.truth_id[self.method], p.v_ego
+        self.lead, self.level, self.ttc, self.relevant = p.frame, p.oracle, p.ttc, p.relevant
         _, fused, tracks = self.perception.seen
         self.last_seen[:, fused.object_id != self.object_id] = -np.inf
         self.object_id = fused.object_id

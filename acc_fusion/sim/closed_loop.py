@@ -40,7 +40,7 @@ from acc_fusion.sensors.spec import infrared_spec, radar_spec
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.world_config import WorldConfig
 from acc_fusion.truth.driver import Driver, DriverConfig
-from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.manoeuvres import SCENARIOS
 from acc_fusion.truth.scripted import make_scenario
 from acc_fusion.warning.logic import WarningConfig, WarningLogic
@@ -160,7 +160,7 @@ class SimResult:
     config: SimConfig
     summaries: dict[str, FCWSummary]
     collided: np.ndarray
-    collision_speed: np.ndarray
+    collision_speed: np.ndarray | None
     steps: int
 
 
@@ -196,6 +196,9 @@ class Perceived:
     oracle: np.ndarray
     ttc: np.ndarray
     relevant: np.ndarray
+    causes: dict[str, np.ndarray] | None = None
+    """Per method, what each pair's warning is about in truth (an index into
+    :data:`acc_fusion.metrics.summary.CAUSES`; the 2-D world); ``None``: the true lead."""
 
 
 class Perception(PairState):
@@ -325,14 +328,17 @@ def simulate(
     progress: bool = False,
     on_step: Callable[[StepView], None] | None = None,
     warnings_on: bool = True,
+    perception: Callable[[SimConfig, int, np.random.SeedSequence], Perception] = Perception,
 ) -> SimResult:
     """Run ``config``; with ``warnings_on`` false the driver never hears a warning.
 
     ``on_step`` (e.g. a :class:`Trace` or :class:`FirstWarning`) sees every step.  ``source``
     replaces the scripted scenario of ``config`` by another truth source with the same
-    interface (e.g. :class:`acc_fusion.truth.sumo.source.SumoSource`); its slots are the pairs, its
-    step
-    is ``dt``, and a slot it ``reassigned`` to a new vehicle starts afresh.
+    interface (e.g. :class:`acc_fusion.truth.sumo.source.SumoSource`); its slots are the pairs,
+    its step is ``dt``, and a slot it ``reassigned`` to a new vehicle starts afresh.
+    ``perception`` builds what turns the source's frames into :class:`Perceived` (the 2-D
+    world's: :func:`acc_fusion.sim.world.simulate_world`); everything after it (warnings,
+    metrics, driver) reads the 1-D frame it returns.
     """
     cfg = config
     dt = cfg.dt
@@ -354,7 +360,7 @@ def simulate(
                 "cannot run driver.distraction; use a source that can (e.g. SumoSource)"
             )
     n = len(source.active)
-    perception = Perception(cfg, n, s_perception)
+    perception = perception(cfg, n, s_perception)
     logic = {m: WarningLogic(cfg.warning, n, dt) for m in cfg.methods}
     metrics = {m: FCWMetrics(n, dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
     driver = Driver(n, cfg.driver, seed=np.random.default_rng(s_driver)) if cfg.drive else None
@@ -368,7 +374,7 @@ def simulate(
     # that holds the vehicles (acc_fusion.core.slots); a scripted batch keeps all its runs.
     stages = [perception, *logic.values(), *metrics.values(),
               *(s for s in (driver, monitor) if s is not None)]  # fmt: skip
-    extent = Extent(n) if isinstance(source, SlotSource) else Extent(n, quantum=n)
+    extent = Extent(n) if getattr(source, "slotted", False) else Extent(n, quantum=n)
 
     steps = 0
     t_last = source.t
@@ -389,6 +395,7 @@ def simulate(
             looking = None if monitor is None else monitor.watch(frame.t, driver.eyes_off, new)
             attentive = adaptive.attentive(looking, frame.ego_accel)
             p = perception.step(frame, active, new, attentive)
+            frame = p.frame
             if new is not None and new.any():
                 for m in cfg.methods:
                     logic[m].reset(new)
@@ -407,6 +414,7 @@ def simulate(
                     active,
                     collided,
                     p.relevant,
+                    None if p.causes is None else p.causes[m],
                 )
             t_last = frame.t
             brake = None
@@ -417,7 +425,9 @@ def simulate(
             if on_step is not None:
                 view = (frame, p.measurements, p.estimates, levels, p.oracle, p.ttc, p.relevant)
                 on_step(StepView(*view, driver))
-            if driver is not None and driver.distracts:
+            if driver is None:
+                source.advance()
+            elif driver.distracts:
                 hold = np.zeros(n, dtype=bool)
                 hold[: frame.n_pairs] = driver.holding
                 source.advance(brake, hold)
@@ -440,6 +450,6 @@ def simulate(
         config=cfg,
         summaries={m: metrics[m].summary() for m in cfg.methods},
         collided=source.collided,
-        collision_speed=source.collision_speed,
+        collision_speed=getattr(source, "collision_speed", None),
         steps=steps,
     )

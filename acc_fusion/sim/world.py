@@ -29,10 +29,9 @@ object, always in path, measured without association.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
@@ -40,11 +39,18 @@ from acc_fusion.fusion.base import Estimate
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.fusion.tracking.association import TrackAssociator, fused_measurements
 from acc_fusion.fusion.tracking.tracker import Tracker
-from acc_fusion.metrics.events import FCWMetrics
-from acc_fusion.metrics.summary import CAUSES, FCWSummary
+from acc_fusion.metrics.summary import CAUSES
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sensors.suite2d import sensors_2d
-from acc_fusion.sim.closed_loop import ACCEL_STD, SimConfig, _EgoSensors, _track_inputs, judge
+from acc_fusion.sim.closed_loop import (
+    ACCEL_STD,
+    Perceived,
+    SimConfig,
+    SimResult,
+    _EgoSensors,
+    judge,
+    simulate,
+)
 from acc_fusion.sim.world_config import WorldConfig
 from acc_fusion.truth.objects import ObjectFrame, ObjectKind
 from acc_fusion.truth.scenes import SceneConfig, SceneSource
@@ -94,14 +100,17 @@ def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class WorldResult:
-    """What :func:`simulate_world` measured: one summary per method (with ``by_cause``), the
-    runs' collisions and the step count."""
+class WorldPerceived(Perceived):
+    """What :class:`WorldPerception` perceived at one step, as the 1-D pipeline's
+    :class:`~acc_fusion.sim.closed_loop.Perceived`: ``frame`` is the 1-D truth of each ego and
+    its true in-path lead (:meth:`ObjectFrame.lead_frame`, which the oracle, the alert classes
+    and the driver judge), ``measurements`` is empty (the sensors' reports belong to objects,
+    not to egos), each method's estimate is that of the object it selected (``valid`` where it
+    selected one), and ``causes`` what that object is in truth (:func:`alert_cause`, or
+    ``fault``).  ``truth_id``: per method, the true id of each ego's selected object (``-1``
+    for a ghost or clutter track, or without a selection)."""
 
-    config: SimConfig
-    summaries: dict[str, FCWSummary]
-    collided: np.ndarray
-    steps: int
+    truth_id: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 class WorldPerception(PairState):
@@ -136,12 +145,13 @@ class WorldPerception(PairState):
         self.pool = PairPool(pairs, pairs)  # object slot e·F + f → the estimators' pair
         self._pool_extent = Extent(pairs, quantum=POOL_QUANTUM)
         self.selectors = {m: InPathSelector(world.selection, n, self.slots) for m in config.methods}
+        self.oracle = WarningLogic(config.warning, n, config.dt)
         self._t_prev: float | None = None
 
     def _resized(self, m: int) -> None:
         self.n = m
         resize_all([*self.trackers, self.associator, *self.selectors.values(), self.ego,
-                    self._read_ego], m)  # fmt: skip
+                    self._read_ego, self.oracle], m)  # fmt: skip
 
     def _free(self, freed: np.ndarray) -> None:
         """Forget the estimators' pairs ``freed`` (a mask over the pool; all inside the
@@ -153,8 +163,8 @@ class WorldPerception(PairState):
 
     def forget(self, egos: np.ndarray, wheel: np.ndarray) -> None:
         """Start ``egos`` (a boolean mask ``(E,)``) afresh in every stage: their tracks, fused
-        objects, the estimators' pairs of their objects, the selectors' memory and the ego
-        filter (from the wheel speed ``wheel``)."""
+        objects, the estimators' pairs of their objects, the selectors' memory, the ego
+        filter (from the wheel speed ``wheel``) and the oracle."""
         for tracker in self.trackers:
             tracker.forget(egos)
         self.associator.forget(egos)
@@ -164,6 +174,7 @@ class WorldPerception(PairState):
         for selector in self.selectors.values():
             selector.forget(egos)
         self.ego.reset(egos, wheel)
+        self.oracle.reset(egos)
 
     def per_slot(self, est: Estimate) -> Estimate:
         """``est`` (over the pool's pairs) laid out over the E·F object slots, ego-major; a
@@ -179,11 +190,15 @@ class WorldPerception(PairState):
                         spread(est.nis, np.nan), spread(est.isolated, False))  # fmt: skip
 
     def step(
-        self, frame: ObjectFrame, active: np.ndarray, reassigned: np.ndarray | None = None
-    ) -> tuple[dict[str, dict[str, np.ndarray]], np.ndarray]:
+        self,
+        frame: ObjectFrame,
+        active: np.ndarray,
+        reassigned: np.ndarray | None = None,
+        attentive: np.ndarray | None = None,
+    ) -> WorldPerceived:
         """Sense, track, fuse and select at ``frame`` (the egos in ``active`` are driven; those
-        ``reassigned`` start afresh): per method the warning inputs of the selected objects
-        and their true ids; and the measured ego speed."""
+        ``reassigned`` start afresh), and judge the truth with the oracle (``attentive``: the
+        drivers it times as attentive, :func:`~acc_fusion.sim.closed_loop.judge`)."""
         dt = self.config.dt if self._t_prev is None else frame.t - self._t_prev
         self._t_prev = frame.t
         lead = frame.lead_frame()
@@ -205,15 +220,26 @@ class WorldPerception(PairState):
         measurements, target = fused_measurements(fused, tracks, detections, slots)
         # Each ego's acceleration over the step from the previous frame to this one.
         u = (accel - bias)[np.maximum(slots, 0) // self.slots]
-        out = {}
+        oracle, ttc, relevant = judge(
+            self.oracle, self.config.alert_classes, lead, active, attentive
+        )
+        faulty = {s.spec.name: s.faulty(frame.t) for s in self.sensors}
+        estimates, truth_id, causes = {}, {}, {}
         for m, estimator in self.estimators.items():
             est = estimator.step(measurements, target, u)
-            out[m] = self._select(m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active)
-        return out, v_ego
+            estimates[m], truth_id[m] = self._select(
+                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active
+            )
+            cause = alert_cause(frame, truth_id[m])
+            if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
+                cause[:] = CAUSES.index("fault")
+            causes[m] = cause
+        return WorldPerceived(lead, [], v_ego, estimates, oracle, ttc, relevant, causes, truth_id)
 
     def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active):
-        """The selected object of each active ego under ``method`` and the warning's inputs
-        (``est`` over the pool's pairs)."""
+        """The selected object of each active ego under ``method``: its estimate (an
+        :class:`~acc_fusion.fusion.base.Estimate` over the egos, ``valid`` where one is
+        selected) and its true id (``est`` over the pool's pairs)."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
         pair_k = np.maximum(pair, 0)
@@ -229,17 +255,14 @@ class WorldPerception(PairState):
         rows = np.arange(n)
         k = np.where(has, sel, 0)
         flat = pair_k[rows, k]
-        gap, v_rel, a_lead, gap_std = np.empty((4, n))
-        _track_inputs(has, est.x[flat], est.p[flat], gap, v_rel, a_lead, gap_std)
+        selected = Estimate(est.t, est.x[flat], est.p[flat], has, est.nis[flat], est.isolated[flat])
         radar_track, camera_track = fused.track[rows, k, 0], fused.track[rows, k, 1]
         truth = np.where(
             radar_track >= 0,
             tracks[0].object_id[rows, np.maximum(radar_track, 0)],
             tracks[1].object_id[rows, np.maximum(camera_track, 0)],
         )
-        inputs = {"gap": gap, "v_ego": v_ego, "v_rel": v_rel, "a_lead": a_lead,
-                  "gap_std": gap_std, "valid": has}  # fmt: skip
-        return {"inputs": inputs, "truth_id": np.where(has, truth, -1)}
+        return selected, np.where(has, truth, -1)
 
 
 def simulate_world(
@@ -247,66 +270,32 @@ def simulate_world(
     *,
     source=None,
     progress: bool = False,
-) -> WorldResult:
+    on_step=None,
+    warnings_on: bool = True,
+) -> SimResult:
     """Run the 2-D pipeline (settings ``config.world``) on its scene (``config.runs`` runs,
     one ego each), or on ``source`` (anything with ``frame()`` giving an :class:`ObjectFrame`,
-    ``advance()``, ``active``, ``collided``, ``t``, ``done`` and ``n_steps``), open loop.
+    ``advance()``, ``active``, ``collided``, ``t``, ``done`` and ``n_steps``): the loop of
+    :func:`~acc_fusion.sim.closed_loop.simulate` with :class:`WorldPerception` as its
+    perception, so ``config.drive`` closes it (the driver hears that method's warnings and
+    brakes, with a source that takes brake requests), ``on_step`` sees every step and
+    ``warnings_on`` false keeps the warnings from the driver; each method's summary has its
+    alerts by cause.
 
     A source of slots (one with ``reassigned``, e.g.
     :class:`acc_fusion.truth.sumo.world.SumoWorld`) has its egos come and go: a slot that a
     new vehicle took starts afresh in every stage, an inactive slot counts for nothing, and
     every stage works on the prefix of slots that holds the vehicles
     (:mod:`acc_fusion.core.slots`)."""
-    cfg, world = config, config.world
-    s_source, s_perception = np.random.SeedSequence(cfg.seed).spawn(2)
     if source is None:
-        scene = SceneConfig(scene=world.scene, runs=cfg.runs, dt=cfg.dt)
+        s_source = np.random.SeedSequence(config.seed).spawn(1)[0]
+        scene = SceneConfig(scene=config.world.scene, runs=config.runs, dt=config.dt)
         source = SceneSource(scene, np.random.default_rng(s_source))
-    slotted = hasattr(source, "reassigned")
-    n = len(source.active)
-    perception = WorldPerception(cfg, n, s_perception)
-    oracle = WarningLogic(cfg.warning, n, cfg.dt)
-    logic = {m: WarningLogic(cfg.warning, n, cfg.dt) for m in cfg.methods}
-    metrics = {m: FCWMetrics(n, cfg.dt, cfg.tolerance, cfg.warn_level) for m in cfg.methods}
-    stages = [perception, oracle, *logic.values(), *metrics.values()]
-    extent = Extent(n) if slotted else Extent(n, quantum=n)
-    steps = 0
-    for _ in tqdm(range(source.n_steps), disable=None if progress else True,
-                  desc=world.scene if not slotted else "traffic", unit="step",
-                  leave=False):  # fmt: skip
-        frame, active, collided = source.frame(), source.active, source.collided
-        new = source.reassigned if slotted else None
-        k = extent.fit_stages(active, stages)
-        if k < n:
-            frame, active, collided = frame.head(k), active[:k], collided[:k]
-            new = new[:k]
-        selected, _ = perception.step(frame, active, new)
-        if new is not None and new.any():
-            oracle.reset(new)
-            for m in cfg.methods:
-                logic[m].reset(new)
-                metrics[m].reset(new)
-        lead = frame.lead_frame()
-        level, ttc, relevant = judge(oracle, cfg.alert_classes, lead, active)
-        faulty = {s.spec.name: s.faulty(frame.t) for s in perception.sensors}
-        for m in cfg.methods:
-            system = logic[m].step(**selected[m]["inputs"])
-            cause = alert_cause(frame, selected[m]["truth_id"])
-            if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
-                cause[:] = CAUSES.index("fault")
-            metrics[m].update(
-                frame.t, system, level, ttc, frame.ego_speed, active, collided, relevant, cause
-            )
-        source.advance()
-        steps += 1
-        if source.done:
-            break
-    resize_all(metrics.values(), n)
-    for m in metrics.values():
-        m.finish(source.t, source.collided)
-    return WorldResult(
-        config=cfg,
-        summaries={m: metrics[m].summary() for m in cfg.methods},
-        collided=source.collided.copy(),
-        steps=steps,
+    return simulate(
+        config,
+        source=source,
+        progress=progress,
+        on_step=on_step,
+        warnings_on=warnings_on,
+        perception=WorldPerception,
     )

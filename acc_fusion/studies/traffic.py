@@ -31,12 +31,14 @@ from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
+from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
 from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.driver import DriverConfig
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
 from acc_fusion.truth.sumo.source import SumoSource
+from acc_fusion.truth.sumo.world import SumoWorld
 
 
 class _MinTTC:
@@ -81,15 +83,23 @@ class SumoRun:
 
 
 def _run(
-    sumo_config, sim: SimConfig, progress: bool, cross_check: bool, warnings_on: bool = True
+    sumo_config,
+    sim: SimConfig,
+    progress: bool,
+    cross_check: bool,
+    warnings_on: bool = True,
+    world: bool = False,
 ) -> SumoRun:
     """One SUMO run (in a worker process).  In open loop SUMO runs in a child process ahead of
     the pipeline (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`); in ``sumo-gui``
     (``sumo_config.gui``) the vehicles are coloured by the warning level of the last method
-    of ``sim``; with ``warnings_on`` false the drivers act but hear no warning."""
+    of ``sim``; with ``warnings_on`` false the drivers act but hear no warning; with ``world``
+    the 2-D pipeline perceives (:func:`~acc_fusion.sim.world.simulate_world` on
+    :class:`~acc_fusion.truth.sumo.world.SumoWorld`, which reads every vehicle in the same
+    process)."""
 
     config = replace(sumo_config, ssm=cross_check)
-    background = sim.drive is None and not config.gui
+    background = sim.drive is None and not config.gui and not world
     with BackgroundSumoSource(config) if background else SumoSource(config) as source:
         history = sim.drive is not None and not warnings_on
         crashes = CrashLog(source, lambda: source.vehicle_ids, dt=source.dt, history=history)
@@ -101,13 +111,13 @@ def _run(
         metrics_so_far: dict[str, FCWSummary] = {}
         error, steps = None, 0
         try:
-            result = simulate(
-                replace(sim, dt=source.dt),
-                source=source,
-                progress=progress,
-                on_step=hook,
-                warnings_on=warnings_on,
-            )
+            run, how = replace(sim, dt=source.dt), {"progress": progress, "on_step": hook}
+            if world:
+                result = simulate_world(
+                    run, source=SumoWorld(source), warnings_on=warnings_on, **how
+                )
+            else:
+                result = simulate(run, source=source, warnings_on=warnings_on, **how)
             metrics_so_far, steps = result.summaries, result.steps
         except SumoError as exc:  # SUMO failed mid-run: report it with what was measured
             error = str(exc)
@@ -242,24 +252,26 @@ def sumo_study(
     progress: bool = False,
     drives: tuple[str, ...] = (),
     ssm: bool = False,
+    world: bool = False,
 ) -> SumoStudy:
     """Run ``sumo_config`` with FCW off (every method watching) and on (federated alerts),
     each in its own process, in parallel; ``drives`` adds an FCW-on run per further method
     (:attr:`SumoStudy.also`); ``ssm`` adds the SSM cross-check to the FCW-off run.  With
     ``gui``, the FCW-on run is the one shown in ``sumo-gui`` (vehicles coloured by its
-    warning level); the other runs stay headless."""
+    warning level); the other runs stay headless.  With ``world`` every run perceives with
+    the 2-D pipeline (settings ``sim.world``), so its summaries have the alerts by cause and
+    the warnings the drivers hear are the 2-D pipeline's."""
     drive = sim.drive or sim.methods[-1]
     distracted = sim.driver.distraction.rate > 0
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
         headless = replace(sumo_config, gui=False)
         off_sim = replace(sim, drive=drive if distracted else None)
-        off = pool.submit(_run, headless, off_sim, progress, ssm, False)
+        off = pool.submit(_run, headless, off_sim, progress, ssm, False, world)
 
         def fcw_on(method: str, config):
-            return pool.submit(
-                _run, config, replace(sim, drive=method, methods=(method,)), False, False
-            )
+            on_sim = replace(sim, drive=method, methods=(method,))
+            return pool.submit(_run, config, on_sim, False, False, True, world)
 
         on = fcw_on(drive, sumo_config)
         also = {m: fcw_on(m, headless) for m in drives if m != drive}

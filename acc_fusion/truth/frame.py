@@ -146,6 +146,10 @@ class SlotSource(ABC):
     and when the source is garbage-collected.
     """
 
+    #: Its pairs are slots: a pipeline works on the prefix of slots that holds the vehicles
+    #: (:mod:`acc_fusion.core.slots`); a source of slots that is no subclass says so too.
+    slotted = True
+
     _frame: TruthFrame
     _active: np.ndarray
     _collided: np.ndarray

@@ -12,7 +12,9 @@ from acc_fusion.truth.sumo.source import SumoSource
 class SumoWorld:
     """A SUMO source as the truth source of :func:`acc_fusion.sim.world.simulate_world`: its
     slots are the egos, their objects :class:`SumoObjects`' frame; a slot that a new vehicle
-    took (``reassigned``) starts afresh in every stage of the pipeline.
+    took (``reassigned``) starts afresh in every stage of the pipeline.  It drives as the
+    source does: :meth:`advance` passes the drivers' brake requests and held vehicles on, so
+    the 2-D pipeline's warnings can close the loop.
 
     Args:
         source: an open, in-process :class:`~acc_fusion.truth.sumo.source.SumoSource`.
@@ -22,6 +24,11 @@ class SumoWorld:
         source: the source; objects: its :class:`SumoObjects`.
     """
 
+    #: Its egos are the source's slots.
+    slotted = True
+    #: It takes brake requests and holds distracted drivers' vehicles, as its source does.
+    accepts_brakes = accepts_hold = True
+
     def __init__(self, source: SumoSource, config: ObjectFieldConfig | None = None) -> None:
         self.objects = SumoObjects(source, config)
         self.source = source
@@ -30,9 +37,20 @@ class SumoWorld:
         """The object frame of the current step."""
         return self.objects.frame()
 
-    def advance(self) -> None:
-        """Run one SUMO step, open loop (no brake requests)."""
-        self.source.advance()
+    def advance(self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None) -> None:
+        """Run one SUMO step with the drivers' brake requests and held vehicles
+        (:meth:`SumoSource.advance <acc_fusion.truth.sumo.source.SumoSource.advance>`)."""
+        self.source.advance(ego_brake, hold)
+
+    @property
+    def vehicle_ids(self) -> list[str | None]:
+        """The vehicle id of each slot (``None`` where empty)."""
+        return self.source.vehicle_ids
+
+    @property
+    def collision_speed(self) -> np.ndarray:
+        """``(E,)`` impact speed [m/s] of each slot's collision (NaN where none)."""
+        return self.source.collision_speed
 
     @property
     def active(self) -> np.ndarray:
