@@ -50,6 +50,15 @@ def test_stationary_policies(policy, confirmed, expected):
     assert _select(cfg, [50], [0.0], [0.0], confirmed=[[confirmed]])[0] == expected
 
 
+@pytest.mark.parametrize(("oncoming", "expected"), [(False, 1), (True, 0)])
+def test_an_oncoming_car_in_the_corridor_is_no_rear_end_target(oncoming, expected):
+    """A car coming toward the ego at 26 m/s, 120 m ahead in the corridor (the other
+    carriageway, swept in by the path), and a car ahead moving the ego's way 150 m ahead: by
+    default the selection takes the one a rear-end collision could involve."""
+    cfg = SelectionConfig(oncoming=oncoming)
+    assert _select(cfg, [120, 150], [1.0, 0.0], [-26.0, 30.0])[0] == expected
+
+
 def test_an_object_seen_moving_stays_selectable_when_it_stops_until_its_slot_changes_object():
     sel = InPathSelector(SelectionConfig(), 1, 1)
     args = (np.array([[50.0]]), np.zeros((1, 1)))

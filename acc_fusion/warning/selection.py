@@ -39,6 +39,16 @@ Stationary objects (``stationary``)
     detector) confirms the object, or when the object was seen moving since it was first
     tracked — the radar alone then ignores gantries, bridges and parked cars, and with them a
     car revealed standing still.
+
+Oncoming objects (``oncoming``)
+    A track whose estimated ground speed is below :math:`-`\ ``stationary_speed`` comes
+    toward the ego.  An FCW warns of rear-end collisions with vehicles ahead (ISO 15623:2013,
+    scope: "a potential rear-end collision with other vehicles ahead of the subject
+    vehicle"), so by default (``oncoming = False``) such a track is never selected; ``True``
+    makes it selectable, to study what the scope leaves out.  Without the rule, a path
+    predicted from a noisy yaw rate swept the other carriageway's traffic, 110-180 m ahead and
+    closing at 60 m/s, into the corridor: most of the 2-D pipeline's sensing-false alerts on
+    the bundled motorway (2026-11-27, docs/guide/world.md).
 """
 
 from __future__ import annotations
@@ -69,6 +79,8 @@ class SelectionConfig:
         stationary: ``"all"``, ``"confirmed"`` (default) or ``"ignore"``.
         stationary_speed: ground speed below which a track is stationary [m/s]; 2.0
             (assumption: above the speed noise of a converged track).
+        oncoming: select tracks coming toward the ego (ground speed below
+            ``-stationary_speed``); False (ISO 15623's rear-end scope).
         min_speed: speed below which the yaw-rate curvature is not formed [m/s]; 1.0.
     """
 
@@ -76,6 +88,7 @@ class SelectionConfig:
     half_width: float = 1.75
     stationary: str = "confirmed"
     stationary_speed: float = 2.0
+    oncoming: bool = False
     min_speed: float = 1.0
 
     def __post_init__(self) -> None:
@@ -159,6 +172,8 @@ class InPathSelector(PairState):
         kappa = path_curvature(cfg, speed, yaw_rate, road_curvature)
         offset = y - 0.5 * kappa[:, None] * x * x
         in_path = used & (x > 0.0) & (np.abs(offset) <= cfg.half_width)
+        if not cfg.oncoming:
+            in_path &= ground_speed > -cfg.stationary_speed
         if cfg.stationary == "ignore":
             in_path &= ~stationary
         elif cfg.stationary == "confirmed":
