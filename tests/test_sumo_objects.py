@@ -365,6 +365,7 @@ def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsy
         (["--world", "--closed-loop", "--conditions", "day", "night"], "one condition"),
         (["--world", "--all-drives"], "add it for --all-drives"),
         (["--world", "--ssm"], "drop --gui, --ssm"),
+        (["--world", "--set", "drive=federated"], "add --closed-loop"),
     ],
 )
 def test_bad_world_flags_are_one_error(flags, match):

@@ -1,5 +1,6 @@
-"""The 2-D pipeline on a source of slots (``simulate_world`` with ``reassigned``): an inactive
-slot counts for nothing, a reassigned slot starts afresh, and the other slots are untouched."""
+"""The 2-D pipeline on a source of slots (``simulate_world`` with ``reassigned`` and
+``slotted``): an inactive slot counts for nothing, a reassigned slot starts afresh, and the
+other slots are untouched."""
 
 from dataclasses import replace
 

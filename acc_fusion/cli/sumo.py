@@ -94,8 +94,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run_world(args: argparse.Namespace, path, sumo_cfg, conditions) -> int:
     """``acc-fusion sumo --world``, open loop, once per condition: print the tables (and write
     them with ``--out``)."""
+    sim = sim_config(args, runs=1)
+    if sim.drive is not None:
+        raise ConfigError(
+            "--world runs open loop, nobody driving on the warnings; add --closed-loop"
+        )
     out = output_dir(args.out) if args.out else None
-    study = sumo_world_study(sumo_cfg, sim_config(args, runs=1), conditions, progress=True)
+    study = sumo_world_study(sumo_cfg, sim, conditions, progress=True)
     tables = {f"sumo_world_classes_{i}": t for i, t in enumerate(study.classes())}
     tables["sumo_world_causes"] = study.causes()
     print("\n\n".join(t.format() for t in tables.values()))

@@ -382,7 +382,7 @@ def simulate(
         for _ in tqdm(
             range(source.n_steps),
             disable=None if progress else True,
-            desc=cfg.scenario,
+            desc=cfg.scenario if perception is Perception else "2-D world",
             unit="step",
             leave=False,
         ):

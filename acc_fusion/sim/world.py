@@ -282,11 +282,10 @@ def simulate_world(
     ``warnings_on`` false keeps the warnings from the driver; each method's summary has its
     alerts by cause.
 
-    A source of slots (one with ``reassigned``, e.g.
-    :class:`acc_fusion.truth.sumo.world.SumoWorld`) has its egos come and go: a slot that a
-    new vehicle took starts afresh in every stage, an inactive slot counts for nothing, and
-    every stage works on the prefix of slots that holds the vehicles
-    (:mod:`acc_fusion.core.slots`)."""
+    A source with ``reassigned`` has its egos come and go: a slot that a new vehicle took
+    starts afresh in every stage and an inactive slot counts for nothing; a source of slots
+    (``slotted = True``, e.g. :class:`acc_fusion.truth.sumo.world.SumoWorld`) also has every
+    stage work on the prefix of slots that holds the vehicles (:mod:`acc_fusion.core.slots`)."""
     if source is None:
         s_source = np.random.SeedSequence(config.seed).spawn(1)[0]
         scene = SceneConfig(scene=config.world.scene, runs=config.runs, dt=config.dt)

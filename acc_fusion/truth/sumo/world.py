@@ -24,11 +24,6 @@ class SumoWorld:
         source: the source; objects: its :class:`SumoObjects`.
     """
 
-    #: Its egos are the source's slots.
-    slotted = True
-    #: It takes brake requests and holds distracted drivers' vehicles, as its source does.
-    accepts_brakes = accepts_hold = True
-
     def __init__(self, source: SumoSource, config: ObjectFieldConfig | None = None) -> None:
         self.objects = SumoObjects(source, config)
         self.source = source
@@ -41,6 +36,21 @@ class SumoWorld:
         """Run one SUMO step with the drivers' brake requests and held vehicles
         (:meth:`SumoSource.advance <acc_fusion.truth.sumo.source.SumoSource.advance>`)."""
         self.source.advance(ego_brake, hold)
+
+    @property
+    def slotted(self) -> bool:
+        """Its egos are the source's slots (:mod:`acc_fusion.core.slots`)."""
+        return getattr(self.source, "slotted", False)
+
+    @property
+    def accepts_brakes(self) -> bool:
+        """It takes brake requests when its source does."""
+        return getattr(self.source, "accepts_brakes", True)
+
+    @property
+    def accepts_hold(self) -> bool:
+        """It holds distracted drivers' vehicles when its source does."""
+        return getattr(self.source, "accepts_hold", False)
 
     @property
     def vehicle_ids(self) -> list[str | None]:
