@@ -69,20 +69,24 @@ _CLASSIFYING = ("infrared", "centralized", "federated")
 POOL_QUANTUM = 1024
 
 
-def alert_cause(frame: ObjectFrame, truth_id: np.ndarray) -> np.ndarray:
+def alert_cause(
+    frame: ObjectFrame, truth_id: np.ndarray, lead_id: np.ndarray | None = None
+) -> np.ndarray:
     """``(E,)`` index into :data:`CAUSES` of what each ego's selected object is in truth.
 
     ``truth_id (E,)`` is the true object id behind the selected object (``-1`` for a ghost or
-    clutter track).  A vehicle moving across its lane faster than :data:`LANE_CHANGE_SPEED`
-    is ``cut_in_out``, the true lead included (it has just cut in, or is cutting out: a
-    source such as SUMO makes a vehicle the ego's leader the moment it changes lanes); the
-    true in-path lead otherwise is ``lead``; a stationary kind is ``stationary``; any other
-    vehicle ``adjacent``; an id not in the frame (or ``-1``) ``ghost``.
+    clutter track); ``lead_id (E,)`` the true in-path lead's id where the caller has it
+    (default: :meth:`ObjectFrame.lead_frame`'s).  A vehicle moving across its lane faster
+    than :data:`LANE_CHANGE_SPEED` is ``cut_in_out``, the true lead included (it has just cut
+    in, or is cutting out: a source such as SUMO makes a vehicle the ego's leader the moment
+    it changes lanes); the true in-path lead otherwise is ``lead``; a stationary kind is
+    ``stationary``; any other vehicle ``adjacent``; an id not in the frame (or ``-1``)
+    ``ghost``.
     """
     n = frame.n_egos
     if not frame.max_objects:  # no object ahead of any ego: whatever is selected is a ghost
         return np.full(n, CAUSES.index("ghost"), dtype=np.int64)
-    lead_id = frame.lead_frame().leader_id
+    lead_id = frame.lead_frame().leader_id if lead_id is None else lead_id
     match = frame.valid & (frame.object_id == truth_id[:, None]) & (truth_id[:, None] >= 0)
     found = match.any(axis=1)
     k = np.argmax(match, axis=1)
@@ -230,7 +234,7 @@ class WorldPerception(PairState):
             estimates[m], truth_id[m] = self._select(
                 m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active
             )
-            cause = alert_cause(frame, truth_id[m])
+            cause = alert_cause(frame, truth_id[m], lead.leader_id)
             if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
                 cause[:] = CAUSES.index("fault")
             causes[m] = cause
