@@ -1,0 +1,115 @@
+"""How often the drivers of a SUMO scenario brake hard: the leads behind FCW's nuisance alerts.
+
+Runs the scenario with SUMO's own drivers (nobody warned, nobody distracted) and reads every
+vehicle's acceleration at every step after a warm-up. A *hard braking* starts when a vehicle's
+deceleration reaches ``--threshold`` (default 3.4 m/s², AASHTO's deceleration that 90 % of
+drivers exceed only for an unexpected object, the alert classes' crash-relevant threshold) and
+ends when it falls below it. Prints the onsets per 100 km of driving and the share of driving
+time spent braking that hard. ``--car-decel`` sets the ``decel`` of every passenger-car type
+first (SUMO's Krauss drivers brake up to it in ordinary following; the bundled networks keep
+SUMO's default 4.5 m/s²), for the sensitivity in docs/theory/alert-classes.md. The last line
+is ``onsets_per_100km=<x> share_of_time=<y> km=<z>``.
+
+    python scripts/hard_braking.py                      # bundled motorway, 300 s
+    python scripts/hard_braking.py --car-decel 3.0      # cars braking at most 3 m/s² normally
+    python scripts/hard_braking.py --sumocfg my.sumocfg --end 600 --threshold 3.0
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from tqdm.auto import tqdm
+
+from acc_fusion.core.errors import AccFusionError
+from acc_fusion.truth.sumo.config import SumoConfig
+from acc_fusion.truth.sumo.launch import load_api, sumo_command
+from acc_fusion.truth.sumo.nets import resolve_sumocfg
+
+
+def hard_braking(
+    config: SumoConfig,
+    end: float,
+    warmup: float,
+    threshold: float,
+    car_decel: float | None = None,
+    progress: bool = True,
+) -> tuple[int, float, float]:
+    """``(onsets, km, share)``: hard-braking onsets, kilometres driven and the share of the
+    vehicle-time spent braking at ``threshold`` [m/s²] or harder, from ``warmup`` to ``end``."""
+    sumo = load_api(False)
+    sumo.start(sumo_command(config))
+    onsets, metres, hard_time, time = 0, 0.0, 0.0, 0.0
+    braking: set[str] = set()
+    try:
+        veh, dt = sumo.vehicle, sumo.simulation.getDeltaT()
+        if car_decel is not None:
+            for vtype in sumo.vehicletype.getIDList():
+                if sumo.vehicletype.getVehicleClass(vtype) == "passenger":
+                    sumo.vehicletype.setDecel(vtype, car_decel)
+        for k in tqdm(
+            range(1, int(round(end / dt)) + 1),
+            disable=None if progress else True,
+            desc="SUMO",
+            leave=False,
+        ):
+            sumo.simulationStep()
+            if k * dt < warmup:
+                continue
+            now = set()
+            for vid in veh.getIDList():
+                metres += veh.getSpeed(vid) * dt
+                time += dt
+                if veh.getAcceleration(vid) <= -threshold:
+                    now.add(vid)
+            onsets += len(now - braking)
+            hard_time += len(now) * dt
+            braking = now
+    finally:
+        sumo.close()
+    return onsets, metres / 1000.0, hard_time / max(time, 1e-12)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
+    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
+    p.add_argument("--end", type=float, default=300.0, help="simulated seconds (default 300)")
+    p.add_argument("--warmup", type=float, default=60.0, help="seconds before counting (60)")
+    p.add_argument("--threshold", type=float, default=3.4, help="hard braking from [m/s²] (3.4)")
+    p.add_argument("--car-decel", type=float, help="set every car type's decel [m/s²] first")
+    p.add_argument("--seed", type=int, default=0, help="SUMO seed (default 0)")
+    args = p.parse_args(argv)
+    try:
+        if not 0 <= args.warmup < args.end:
+            raise AccFusionError(f"--warmup must be in [0, --end), got {args.warmup:g}")
+        if not args.threshold > 0:
+            raise AccFusionError(f"--threshold must be > 0 m/s², got {args.threshold:g}")
+        if args.car_decel is not None and not args.car_decel > 0:
+            raise AccFusionError(f"--car-decel must be > 0 m/s², got {args.car_decel:g}")
+        path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
+        config = SumoConfig(str(path), seed=args.seed)
+        onsets, km, share = hard_braking(
+            config, args.end, args.warmup, args.threshold, args.car_decel
+        )
+    except AccFusionError as exc:
+        print(f"hard_braking.py: error: {exc}", file=sys.stderr)
+        return 2
+    if km <= 0:
+        print("hard_braking.py: error: no vehicle drove after the warm-up", file=sys.stderr)
+        return 2
+    rate = 100.0 * onsets / km
+    cars = "SUMO's" if args.car_decel is None else f"{args.car_decel:g} m/s²"
+    print(f"{path.name} ({args.warmup:g}-{args.end:g} s, car decel {cars}): {km:.0f} km driven")
+    print(
+        f"  braking at {args.threshold:g} m/s² or harder: {onsets} onsets, "
+        f"{rate:.1f} per 100 km, {share:.2%} of the driving time"
+    )
+    print(f"onsets_per_100km={rate:.2f} share_of_time={share:.4f} km={km:.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
