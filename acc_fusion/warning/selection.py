@@ -46,9 +46,9 @@ Oncoming objects (``oncoming``)
     scope: "a potential rear-end collision with other vehicles ahead of the subject
     vehicle"), so by default (``oncoming = False``) such a track is never selected; ``True``
     makes it selectable, to study what the scope leaves out.  Without the rule, a path
-    predicted from a noisy yaw rate swept the other carriageway's traffic, 110-180 m ahead and
-    closing at 60 m/s, into the corridor: most of the 2-D pipeline's sensing-false alerts on
-    the bundled motorway (2026-11-27, docs/guide/world.md).
+    predicted from a noisy yaw rate swept the other carriageway's traffic, well ahead and
+    closing at both speeds, into the corridor: most of the 2-D pipeline's sensing-false
+    alerts on the bundled motorway (2026-11-27, docs/guide/world.md).
 """
 
 from __future__ import annotations
