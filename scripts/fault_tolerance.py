@@ -13,10 +13,13 @@ or silent for ``dropout_time`` (``D``), or a report beyond the gate (``G``, a sp
 the false-isolation and false-adaptation rates per pair-hour.  Then the alerts under each
 fault, and a lasting radar bias with and without its accommodation
 (:func:`acc_fusion.studies.estimation.lasting_bias_table`).  The last line is
-``worst_ratio_to_bound=<x>`` (a fault-tolerant federated filter has x <= 1).
+``worst_ratio_to_bound=<x>`` (a fault-tolerant federated filter has x <= 1).  ``--set
+fusion.fdi.KEY=VALUE`` runs every table with another setting of the fault detector
+(:class:`acc_fusion.fusion.fdi.FDIConfig`).
 
     python scripts/fault_tolerance.py --runs 100 --seed 0 --plot out/fault_tolerance.png
     python scripts/fault_tolerance.py --quick
+    python scripts/fault_tolerance.py --quick --set fusion.fdi.manoeuvre=false
 """
 
 from __future__ import annotations
@@ -25,11 +28,13 @@ import math
 
 import numpy as np
 
-from acc_fusion.cli.common import study_parser
+from acc_fusion.cli.common import sim_config, study_parser
+from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.table import Table
 from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
+from acc_fusion.fusion.fdi import FDIConfig
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
 from acc_fusion.sim.closed_loop import SimConfig, simulate
@@ -88,9 +93,10 @@ def scenarios(start: float = ONSET, end: float = END) -> dict[str, dict[str, tup
     return out
 
 
-def alert_table(n_runs: int, seed: int) -> Table:
-    """Alerts under each fault: the FCW warnings of each method, classed from truth
-    (:mod:`acc_fusion.metrics.alert_classes`), on the random FCW suite (open loop)."""
+def alert_table(n_runs: int, seed: int, fdi: FDIConfig) -> Table:
+    """Alerts under each fault: the FCW warnings of each method (fault detector ``fdi``),
+    classed from truth (:mod:`acc_fusion.metrics.alert_classes`), on the random FCW suite
+    (open loop)."""
     short = {FEDERATED: "fed", "centralized": "central", "radar alone": "radar",
              "infrared alone": "infrared"}  # fmt: skip
     table = Table(
@@ -103,7 +109,7 @@ def alert_table(n_runs: int, seed: int) -> Table:
         res = simulate(
             SimConfig(
                 scenario=ALERT_SCENARIO, runs=n_runs, seed=seed, duration=ALERT_DURATION,
-                methods=tuple(METHODS.values()), fusion=FusionConfig(), **faults,
+                methods=tuple(METHODS.values()), fusion=FusionConfig(fdi=fdi), **faults,
             )
         )  # fmt: skip
         row = {"fault": fault, "relevant": res.summaries["federated"].relevant}
@@ -150,11 +156,12 @@ class _Detections:
             self.first[new] = frame.t - ONSET
 
 
-def run_scenario(faults: dict[str, tuple[Fault, ...]], n_runs: int, seed: int):
-    """Every method on the same truth and measurements; returns (stats, isolations)."""
+def run_scenario(faults: dict[str, tuple[Fault, ...]], n_runs: int, seed: int, fdi: FDIConfig):
+    """Every method (fault detector ``fdi``) on the same truth and measurements; returns
+    (stats, isolations)."""
     ests = {
         label: make_estimator(
-            FusionConfig(method=method, filter=FOLLOWING_FILTER), SENSOR_NAMES, n_runs
+            FusionConfig(method=method, filter=FOLLOWING_FILTER, fdi=fdi), SENSOR_NAMES, n_runs
         )
         for label, method in METHODS.items()
     }
@@ -171,7 +178,7 @@ def run_scenario(faults: dict[str, tuple[Fault, ...]], n_runs: int, seed: int):
     return res.estimators, iso
 
 
-def fault_table(n_runs: int, seed: int) -> tuple[Table, float]:
+def fault_table(n_runs: int, seed: int, fdi: FDIConfig) -> tuple[Table, float]:
     """The whole table and the worst ratio of the federated RMSE to its bound."""
     columns = (
         "fault", *(f"{m}_m" for m in METHODS), "fed_ratio", "central_ratio", "bound_m",
@@ -185,7 +192,7 @@ def fault_table(n_runs: int, seed: int) -> tuple[Table, float]:
     healthy: dict[str, float] = {}
     worst = 0.0
     for fault, faults in scenarios().items():
-        stats, iso = run_scenario(faults, n_runs, seed)
+        stats, iso = run_scenario(faults, n_runs, seed, fdi)
         rmse = {m: st.rmse_gap for m, st in stats.items()}
         healthy = healthy or rmse
         faulty = [i for i, s in enumerate(SENSOR_NAMES) if f"{s}_faults" in faults]
@@ -251,14 +258,30 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--quick", action="store_true", help=f"{QUICK_RUNS} runs (overrides --runs)"
     )
+    parser.add_argument(
+        "--set",
+        metavar="fusion.fdi.KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="set a field of the fault detector for every table (repeatable), e.g. "
+        "--set fusion.fdi.manoeuvre=false",
+    )
     args = parser.parse_args(argv)
     runs = QUICK_RUNS if args.quick else args.runs
-    table, worst = fault_table(runs, args.seed)
+    try:
+        for item in args.overrides:
+            if not item.startswith("fusion.fdi."):
+                raise ConfigError(f"--set takes fusion.fdi.KEY=VALUE here, got {item!r}")
+        fdi = sim_config(args).fusion.fdi
+    except AccFusionError as exc:
+        parser.exit(2, f"fault_tolerance.py: error: {exc}\n")
+    table, worst = fault_table(runs, args.seed, fdi)
     print(table.format())
     print()
-    print(alert_table(runs, args.seed).format())
+    print(alert_table(runs, args.seed, fdi).format())
     print()
-    print(lasting_bias_table(runs).format())
+    print(lasting_bias_table(runs, fdi=fdi).format())
     if args.plot:
         plot(table, args.plot)
         print(f"plot written to {args.plot}")

@@ -13,7 +13,12 @@ from acc_fusion.fusion.fdi import FDIConfig, WindowedChiSquare
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.sensors.sensor import Measurement
 from acc_fusion.sensors.suite import SENSOR_NAMES, make_sensors
-from acc_fusion.studies.estimation import FOLLOWING_FILTER, following_source, lasting_bias
+from acc_fusion.studies.estimation import (
+    FOLLOWING_FILTER,
+    following_source,
+    lasting_bias,
+    wrong_sensor_runs,
+)
 
 N_RUNS, ONSET, DT = 200, 3.0, 0.05
 SENSOR_RATES = pytest.mark.parametrize(
@@ -182,10 +187,7 @@ def test_a_lasting_radar_bias_is_estimated_removed_and_the_radar_rejoins():
 
     # Two sensors cannot say which one is wrong: where the camera was isolated at the onset
     # it is the one corrected, and the fused gap stays off, as it does without correction.
-    def wrong(err):
-        return int((np.abs(err[-100:]).mean(axis=0) > 2.0).sum())
-
-    assert wrong(errors) <= wrong(isolated_only) <= 0.03 * N_RUNS
+    assert wrong_sensor_runs(errors) <= wrong_sensor_runs(isolated_only) <= 0.03 * N_RUNS
 
 
 def test_a_bias_that_ends_is_forgotten_and_the_raw_radar_rejoins():

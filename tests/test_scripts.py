@@ -51,6 +51,9 @@ def test_help(script):
         ("steady_state_vs_full.py", ["--sensor", "lidar"], "invalid choice: 'lidar'"),
         ("bench_filters.py", ["--sizes", "0"], "must be a whole number >= 1"),
         ("profile_sumo_process.py", ["--repeat", "0"], "--repeat must be at least 1"),
+        ("fault_tolerance.py", ["--set", "warning.model=ttc"], "takes fusion.fdi.KEY=VALUE"),
+        ("fault_tolerance.py", ["--set", "fusion.fdi.window=-3"], "fdi.window must be"),
+        ("fault_tolerance.py", ["--set", "fusion.fdi.nope=1"], "unknown config key"),
     ],
 )
 def test_bad_arguments_are_argparse_errors(script, args, message):
@@ -78,7 +81,17 @@ def test_fault_tolerance(tmp_path):
     assert "both 2% spikes" in out and "false isolations" in out and "detected_by" in out
     assert "1.1x infrared alone" in out and "1.5x healthy" in out
     assert re.fullmatch(r"worst_ratio_to_bound=[0-9.]+", out.strip().splitlines()[-1])
+    assert "camera_blamed_runs" in out
     assert_png(png)
+    # --set reaches every table: without "manoeuvre first" the radar bias row changes.
+    off = run("fault_tolerance.py", "--runs", "20", "--set", "fusion.fdi.manoeuvre=false").stdout
+    assert _row(off, "radar bias +5 m") != _row(out, "radar bias +5 m")
+    assert _row(off, "healthy") == _row(out, "healthy")
+
+
+def _row(out: str, label: str) -> str:
+    """The first line of ``out`` that starts with ``label`` and a space."""
+    return next(line for line in out.splitlines() if line.startswith(f"{label} "))
 
 
 def test_steady_state_vs_full():
