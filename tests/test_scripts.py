@@ -83,15 +83,18 @@ def test_fault_tolerance(tmp_path):
     assert re.fullmatch(r"worst_ratio_to_bound=[0-9.]+", out.strip().splitlines()[-1])
     assert "camera_blamed_runs" in out
     assert_png(png)
-    # --set reaches every table: without "manoeuvre first" the radar bias row changes.
+    # --set reaches every table: without "manoeuvre first" each changes where the rule acts.
     off = run("fault_tolerance.py", "--runs", "20", "--set", "fusion.fdi.manoeuvre=false").stdout
-    assert _row(off, "radar bias +5 m") != _row(out, "radar bias +5 m")
-    assert _row(off, "healthy") == _row(out, "healthy")
+    for table, label in ((0, "radar bias +5 m"), (1, "radar noise x10"), (2, "on")):
+        assert _row(off, table, label) != _row(out, table, label)
+    assert _row(off, 0, "healthy") == _row(out, 0, "healthy")
 
 
-def _row(out: str, label: str) -> str:
-    """The first line of ``out`` that starts with ``label`` and a space."""
-    return next(line for line in out.splitlines() if line.startswith(f"{label} "))
+def _row(out: str, table: int, label: str) -> str:
+    """The line of the ``table``-th table of ``out`` (tables are separated by blank lines)
+    whose first column is ``label``."""
+    lines = out.split("\n\n")[table].splitlines()
+    return next(line for line in lines if line.startswith(f"{label}  "))
 
 
 def test_steady_state_vs_full():
