@@ -22,10 +22,10 @@ import sys
 
 from tqdm.auto import tqdm
 
+from acc_fusion.cli.common import add_scenario_arguments, scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.launch import load_api, sumo_command
-from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
 def hard_braking(
@@ -73,24 +73,16 @@ def hard_braking(
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
-    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
-    p.add_argument("--end", type=float, default=300.0, help="simulated seconds (default 300)")
-    p.add_argument("--warmup", type=float, default=60.0, help="seconds before counting (60)")
+    add_scenario_arguments(p, 60.0, "counting")
     p.add_argument("--threshold", type=float, default=3.4, help="hard braking from [m/s²] (3.4)")
     p.add_argument("--car-decel", type=float, help="set every car type's decel [m/s²] first")
-    p.add_argument("--seed", type=int, default=0, help="SUMO seed (default 0)")
     args = p.parse_args(argv)
     try:
-        if not 0 <= args.warmup < args.end:
-            raise AccFusionError(f"--warmup must be in [0, --end), got {args.warmup:g}")
         if not args.threshold > 0:
             raise AccFusionError(f"--threshold must be > 0 m/s², got {args.threshold:g}")
         if args.car_decel is not None and not args.car_decel > 0:
             raise AccFusionError(f"--car-decel must be > 0 m/s², got {args.car_decel:g}")
-        path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
-        config = SumoConfig(str(path), seed=args.seed)
+        path, config = scenario_config(args)
         onsets, km, share = hard_braking(
             config, args.end, args.warmup, args.threshold, args.car_decel
         )

@@ -23,12 +23,12 @@ import sys
 import numpy as np
 from tqdm.auto import tqdm
 
+from acc_fusion.cli.common import add_scenario_arguments, scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.plots import plt
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.launch import load_api, sumo_command
-from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 #: King et al. (2022): median headway [s] and share of headways under 2 s (headways <= 5 s).
 REFERENCE = {"median_s": 1.74, "share_below_2s": 0.583}
@@ -89,19 +89,12 @@ def figure(h: np.ndarray, title: str):
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
-    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
-    p.add_argument("--end", type=float, default=300.0, help="simulated seconds (default 300)")
-    p.add_argument("--warmup", type=float, default=120.0, help="seconds before sampling (120)")
-    p.add_argument("--seed", type=int, default=0, help="SUMO seed (default 0)")
+    add_scenario_arguments(p, 120.0, "sampling")
     p.add_argument("--plot", metavar="PNG", help="write the histogram and CDF here")
     args = p.parse_args(argv)
     try:
-        if not 0 <= args.warmup < args.end:
-            raise AccFusionError(f"--warmup must be in [0, --end), got {args.warmup:g}")
-        path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
-        h = headways(SumoConfig(str(path), seed=args.seed), args.end, args.warmup)
+        path, config = scenario_config(args)
+        h = headways(config, args.end, args.warmup)
     except AccFusionError as exc:
         print(f"headways.py: error: {exc}", file=sys.stderr)
         return 2

@@ -324,10 +324,7 @@ def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_
         assert title in out
     data = json.loads((tmp_path / "sumo_world_motorway_seed0.json").read_text())
     for label in ("day", "night, fog 60 m"):
-        for method, s in data[label].items():
-            assert s["km"] > 0, method
-            for c in ("crash_relevant", "nuisance", "sensing_false"):
-                assert sum(s["by_cause"][c].values()) == s[c], (label, method, c)
+        assert_causes_add_up(data[label], label)
     assert (tmp_path / "sumo_world_motorway_seed0_causes.csv").exists()
 
 
@@ -351,10 +348,7 @@ def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsy
     assert set(data["fcw_off"]) == {"radar", "infrared", "centralized", "federated"}
     assert set(data["fcw_on"]) == {"federated"}  # the drivers heard the federated warnings
     for run in ("fcw_off", "fcw_on"):
-        for method, s in data[run].items():
-            assert s["km"] > 0, method
-            for c in ("crash_relevant", "nuisance", "sensing_false"):
-                assert sum(s["by_cause"][c].values()) == s[c], (run, method, c)
+        assert_causes_add_up(data[run], run)
     assert (tmp_path / "sumo_motorway_seed0_causes.csv").exists()
 
 
@@ -372,3 +366,12 @@ def test_bad_world_flags_are_one_error(flags, match):
     args = build_parser().parse_args(["sumo", "--net", "motorway", *flags])
     with pytest.raises(ConfigError, match=match):
         sumo_command(args)
+
+
+def assert_causes_add_up(summaries: dict, label: str) -> None:
+    """Every method's summary in ``summaries`` (one run's, ``label``) drove some distance and
+    splits each alert class by cause without losing or adding an alert."""
+    for method, s in summaries.items():
+        assert s["km"] > 0, method
+        for c in ("crash_relevant", "nuisance", "sensing_false"):
+            assert sum(s["by_cause"][c].values()) == s[c], (label, method, c)

@@ -9,7 +9,7 @@ from dataclasses import replace
 import yaml
 
 from acc_fusion.core.config import from_mapping, load_mapping, load_yaml
-from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_json_atomic
 from acc_fusion.core.plots import rates_figure
 from acc_fusion.core.schema import field_at, set_path
@@ -19,6 +19,7 @@ from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.truth.distraction import TRAFFIC_DISTRACTION_RATE
 from acc_fusion.truth.sumo.config import SumoConfig
+from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
 def positive_int(text: str) -> int:
@@ -118,6 +119,29 @@ def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
         help="eyes-off-road episodes per driving hour of each equipped driver (default "
         f"{TRAFFIC_DISTRACTION_RATE:g}; 0: none; driver.distraction.* for the durations)",
     )
+
+
+def add_scenario_arguments(p: argparse.ArgumentParser, warmup: float, before: str) -> None:
+    """The arguments of a script that measures a SUMO scenario's own traffic: ``--net``
+    (default motorway) or ``--sumocfg``, ``--end``, ``--warmup`` (default ``warmup``, the
+    seconds ``before`` measuring) and ``--seed``."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
+    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
+    p.add_argument("--end", type=float, default=300.0, help="simulated seconds (default 300)")
+    p.add_argument(
+        "--warmup", type=float, default=warmup, help=f"seconds before {before} ({warmup:g})"
+    )
+    p.add_argument("--seed", type=int, default=0, help="SUMO seed (default 0)")
+
+
+def scenario_config(args: argparse.Namespace):
+    """The ``.sumocfg`` path and :class:`SumoConfig` of :func:`add_scenario_arguments`' flags;
+    :class:`AccFusionError` for a ``--warmup`` outside [0, ``--end``) or an unknown scenario."""
+    if not 0 <= args.warmup < args.end:
+        raise AccFusionError(f"--warmup must be in [0, --end), got {args.warmup:g}")
+    path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
+    return path, SumoConfig(str(path), seed=args.seed)
 
 
 def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
