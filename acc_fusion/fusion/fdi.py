@@ -34,12 +34,13 @@ local filter's own innovation with its information share undone).  Two tests use
   \tau, 1]^\top` and :math:`\sigma_a` the filters' ``init_accel_std`` (Bar-Shalom, Li &
   Kirubarajan 2001, §11.2: a manoeuvre as a jump of the unknown input), is used, and the
   priors take the widening before the update; it still counts in the window.  The jump
-  came after the last step at which every report in the fusion was used: :math:`\tau` is
-  the time since, at least one step T and at most ``common_steps`` steps (at an onset the
-  radar may fail the gate a step before both do; a one-step jump then read two steps'
-  range-rate error as the acceleration, −9.5 m/s² against −4.5).  A spike or a ghost
-  jumps in range far beyond the widening (0.4 m at τ = 0.5 s).  Without the jump, sensors
-  failing together locked the filter onto a stale acceleration (docs/theory/federated.md).
+  came after the model last explained a report of each failing sensor (it passed the gate
+  or took a jump): :math:`\tau` is the time since the earliest, at least one step T and at
+  most ``common_steps`` steps.  From a later step it read two steps' range-rate error as
+  the acceleration: −9.5 m/s² for −4.5 when the radar failed a step before both, −8.2 when
+  only the camera reported in between.  A spike or a ghost jumps in range far beyond the
+  widening (0.4 m at τ = 0.5 s).  Without the jump, sensors failing together locked the
+  filter onto a stale acceleration (docs/theory/federated.md).
 * **Window** (per sensor): the sum of the last W values
   :math:`\min(\epsilon_\nu, \epsilon_\times, \chi^2_m(p_c))`, is compared with
   :math:`\chi^2_{mW}(1-\alpha)` (reports confirmed beyond the gate stay out).  A failing
@@ -68,10 +69,9 @@ local filter's own innovation with its information share undone).  Two tests use
   isolated after 2.5W reports instead of W. Before the cross NIS this rule kept braking onsets
   from isolating the healthy radar (``nhtsa_lvd``, 50 healthy runs: 1 193 isolated pair-sensor-
   steps without it); now none is isolated either way. It still gives the noise-burst test time
-  to adapt R, and the filters time to re-learn before a biased radar's second window (without
-  it, ``scripts/fault_tolerance.py --set fusion.fdi.manoeuvre=false``, the radar-bias row
-  breaks its bound: 1.14); its raise costs a few alerts under faults and one on ``make run``
-  (docs/theory/federated.md).
+  to adapt R, and the filters time to re-learn before a biased radar's second window (with
+  ``--set fusion.fdi.manoeuvre=false`` the radar-bias row of ``scripts/fault_tolerance.py``
+  breaks its bound: 1.14); it costs a few alerts under faults and one on ``make run``.
 
 * **Frozen output** (per sensor, a stuck sensor): a healthy sensor's successive reports
   differ by at least their noise, a stuck one repeats itself.  Over K disjoint pairs of

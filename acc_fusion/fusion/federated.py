@@ -22,6 +22,7 @@ from acc_fusion.fusion.kernels import (
     _drop_pairs,
     _federated_step,
     _share_pairs,
+    jump_start,
     jump_vectors,
 )
 
@@ -32,7 +33,7 @@ class FederatedFilter(Estimator):
 
     _PAIR_AXES = {
         **Estimator._PAIR_AXES, "beta": 1, "_seen": 1, "_needed": 1, "_reported_at": 1,
-        "_agreed_at": 0,
+        "_explained_at": 1,
     }  # fmt: skip
 
     def __init__(self, sensors, n_pairs, config, plain: bool = False, specs=None) -> None:
@@ -77,7 +78,7 @@ class FederatedFilter(Estimator):
         self._needed = np.zeros((s, n), dtype=bool)
         self._online_at = np.full(s, -np.inf)
         self._reported_at = np.full((s, n), -np.inf)
-        self._agreed_at = np.full(n, -np.inf)  # every report in the fusion was last used
+        self._explained_at = np.full((s, n), -np.inf)  # the model last explained each sensor
         self._k = 0
 
     def _resized(self, m):
@@ -181,7 +182,7 @@ class FederatedFilter(Estimator):
             for s in s_all:
                 self.locals.assign(s, init, x0, p0, infl[s])
             ini = self.initialised = ini | init
-            self._agreed_at[init] = self._t
+            self._explained_at[:, init] = self._t
 
         if self.fdi is not None:  # a noise burst's adapted R, an estimated bias removed
             r = r * self.fdi.noise_scale.T[:, :, None, None]
@@ -197,20 +198,20 @@ class FederatedFilter(Estimator):
             beyond = reporting & (nis > fdi.gate)
             wide = np.full(nis.shape, np.inf)  # only reports beyond the gate are tested wide
             if beyond.any():  # (a jump needs a report beyond the gate)
-                g = jump_vectors(self._t, self._agreed_at, fdi.dt, fdi.config.common_steps)
-                pw = pm + (var * g)[:, :, None] * g[:, None, :]
+                g = jump_vectors(self._t, self._explained_at, fdi.dt, fdi.config.common_steps)
                 for s in s_all:
+                    pw = pm + (var * g[s])[:, :, None] * g[s][:, None, :]
                     wide[s] = self.engine.nis(xm, pw, z[s], r[s], self.h, self._rows(beyond[s]))
                 wide[~beyond] = np.inf
             accepted, rejoined, manoeuvre, jumped = fdi.step(nis.T, reporting.T, z, r, wide.T)
             accepted, rejoined = accepted.T, rejoined.T
-            fused = reporting & ~fdi.isolated.T  # every report in the fusion used: agreement
-            agree = (accepted | ~fused).all(axis=0) & (accepted & fused).any(axis=0)
-            self._agreed_at[agree] = self._t
             if manoeuvre.any():
                 self._take_manoeuvre(manoeuvre)
-            if jumped.any():
+            if jumped.any():  # since the model last explained a report it now fails to
+                start = jump_start(accepted, nis, fdi.gate, self._explained_at)
+                g = jump_vectors(self._t, start[None], fdi.dt, fdi.config.common_steps)[0]
                 self._take_jump(jumped, var, g[jumped])
+            self._explained_at[accepted & ((nis <= fdi.gate) | jumped[None])] = self._t
         else:
             accepted, rejoined = reporting, np.zeros_like(reporting)
         for s in s_all:
@@ -288,7 +289,7 @@ class FederatedFilter(Estimator):
         _federated_step(
             self.master.x[0], self.master.p[0], self.locals.x, self.locals.p, self.f, self.q,
             *input_args(self.b, self._u), self.h, z, r, valid, self.initialised,
-            self._reported_at, self._agreed_at, *self._track_arrays(),
+            self._reported_at, self._explained_at, *self._track_arrays(),
             *(fdi.tests() if fdi is not None else _NO_TESTS),
             fdi.arrays()[9] if fdi is not None else _NO_FDI[9],
             self._inflate, self._feedback, self._increments, self.config.beta == "trace",

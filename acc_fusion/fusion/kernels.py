@@ -122,7 +122,7 @@ _NO_TESTS = (0.0, 0.0, 0.0, 0, False, (0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0
 
 @njit(cache=True)
 def _federated_step(
-    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, agreed_at, beta, beta0,
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at, beta, beta0,
     seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
     clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
     trace, fuse_now,
@@ -132,8 +132,8 @@ def _federated_step(
 
     Master ``xm (N, n)``, ``pm (N, n, n)`` and locals ``xl (S, N, n)``, ``pl (S, N, n, n)``;
     measurements ``z (S, N, m)``, ``r (S, N, m, m)``, ``valid (S, N)``; track state
-    ``initialised (N,)``, ``agreed_at (N,)`` (the last step at which every report in the
-    fusion was used), ``reported_at``, ``beta``, ``seen``, ``needed (S, N)``; the fault
+    ``initialised (N,)``, ``explained_at (S, N)`` (the last step at which the model explained
+    each sensor's report), ``reported_at``, ``beta``, ``seen``, ``needed (S, N)``; the fault
     detector's windows (``has_fdi``; arrays of :class:`~acc_fusion.fusion.fdi.WindowedChiSquare`).
     Writes the NIS against the master's prior ``nis (N, S)`` and the pairs that used a
     measurement ``used (N,)``.  The first pass runs each pair's predict, initialisation,
@@ -188,7 +188,7 @@ def _federated_step(
                     assign_one(xl[s, k], pl[s, k], x0, p0, _inflation_one(beta[s, k], inflate))
                 initialised[k] = True
                 consumed[k, first] = True
-                agreed_at[k] = t
+                explained_at[:, k] = t
         ini = initialised[k]
         for s in range(n_s):
             if has_fdi:  # a noise burst's adapted R, an estimated bias removed
@@ -200,7 +200,7 @@ def _federated_step(
             else:
                 nis[k, s] = np.nan
             if has_fdi and reporting[k, s] and nis[k, s] > gate:  # against a jump's prior
-                _jump_one(t, agreed_at[k], var[3], common_steps, g)
+                _jump_one(t, explained_at[s, k], var[3], common_steps, g)
                 _widen_one(pm[k], g, accel_var, pw)
                 wide[k, s] = nis_one(xm[k], pw, h, z[s, k], r[s, k], m, s_mat, si, work_m, y)
         if has_fdi:
@@ -208,12 +208,12 @@ def _federated_step(
                        manoeuvre_first, var, buf, total, count, pos, isolated, verdict,
                        suspect, last, frozen, age, accepted, rejoined, manoeuvre, wide,
                        jump)  # fmt: skip
-            agree, took = True, False  # every report in the fusion used: the model agrees
+            if jump[k]:  # since the model last explained a report it now fails to explain
+                _jump_one(t, _jump_start(accepted[k], nis[k], gate, explained_at[:, k]), var[3],
+                          common_steps, g)  # fmt: skip
             for s in range(n_s):
-                if reporting[k, s] and not isolated[k, s]:
-                    agree, took = agree and accepted[k, s], took or accepted[k, s]
-            if agree and took:
-                agreed_at[k] = t
+                if accepted[k, s] and (nis[k, s] <= gate or jump[k]):
+                    explained_at[s, k] = t
         else:
             accepted[k] = reporting[k]
         if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
@@ -267,22 +267,44 @@ def _federated_step(
 
 
 @njit(cache=True, inline="always")
-def _jump_one(t, agreed_at, dt, steps, g):  # pragma: no cover - compiled
+def _jump_one(t, explained_at, dt, steps, g):  # pragma: no cover - compiled
     """``g`` :math:`= [\tau^2/2, \tau, 1]^\top`: what a jump of the relative acceleration
-    :math:`\tau` before ``t`` changes, with :math:`\tau` the time since ``agreed_at``, the
-    last step at which every report in the fusion was used, at least ``dt`` and at most
-    ``steps`` steps (:mod:`acc_fusion.fusion.fdi`, "Acceleration jump")."""
-    tau = max(min(t - agreed_at, steps * dt), dt)
+    :math:`\tau` before ``t`` changes, with :math:`\tau` the time since ``explained_at``, at
+    least ``dt`` and at most ``steps`` steps (:mod:`acc_fusion.fusion.fdi`, "Acceleration
+    jump")."""
+    tau = max(min(t - explained_at, steps * dt), dt)
     g[0], g[1], g[2] = 0.5 * tau * tau, tau, 1.0
 
 
+@njit(cache=True, inline="always")
+def _jump_start(accepted, nis, gate, explained_at):  # pragma: no cover - compiled
+    """The earliest of ``explained_at (S,)`` (the last step at which the model explained each
+    sensor's report) over the sensors whose report is ``accepted`` beyond the ``gate``: when
+    the acceleration jumped, the last evidence that it had not yet."""
+    start = np.inf
+    for s in range(explained_at.size):
+        if accepted[s] and nis[s] > gate:
+            start = min(start, explained_at[s])
+    return start
+
+
 @njit(cache=True)
-def jump_vectors(t, agreed_at, dt, steps):  # pragma: no cover - compiled
-    """:func:`_jump_one` of every pair: ``(N, 3)`` from ``agreed_at (N,)``."""
-    g = np.empty((agreed_at.size, 3))
-    for k in range(agreed_at.size):
-        _jump_one(t, agreed_at[k], dt, steps, g[k])
+def jump_vectors(t, explained_at, dt, steps):  # pragma: no cover - compiled
+    """:func:`_jump_one` of every sensor and pair: ``(S, N, 3)`` from ``explained_at (S, N)``."""
+    g = np.empty((explained_at.shape[0], explained_at.shape[1], 3))
+    for s in range(explained_at.shape[0]):
+        for k in range(explained_at.shape[1]):
+            _jump_one(t, explained_at[s, k], dt, steps, g[s, k])
     return g
+
+
+@njit(cache=True)
+def jump_start(accepted, nis, gate, explained_at):  # pragma: no cover - compiled
+    """:func:`_jump_start` of every pair: ``(N,)`` from ``accepted, nis, explained_at (S, N)``."""
+    out = np.empty(explained_at.shape[1])
+    for k in range(out.size):
+        out[k] = _jump_start(accepted[:, k], nis[:, k], gate, explained_at[:, k])
+    return out
 
 
 @njit(cache=True, inline="always")
