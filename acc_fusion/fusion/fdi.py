@@ -34,13 +34,13 @@ local filter's own innovation with its information share undone).  Two tests use
   \tau, 1]^\top` and :math:`\sigma_a` the filters' ``init_accel_std`` (Bar-Shalom, Li &
   Kirubarajan 2001, §11.2: a manoeuvre as a jump of the unknown input), is used, and the
   priors take the widening before the update; it still counts in the window.  The jump
-  came after the model last explained a report of each failing sensor (it passed the gate
-  or took a jump): :math:`\tau` is the time since the earliest, at least one step T and at
-  most ``common_steps`` steps.  From a later step it read two steps' range-rate error as
-  the acceleration: −9.5 m/s² for −4.5 when the radar failed a step before both, −8.2 when
-  only the camera reported in between.  A spike or a ghost jumps in range far beyond the
-  widening (0.4 m at τ = 0.5 s).  Without the jump, sensors failing together locked the
-  filter onto a stale acceleration (docs/theory/federated.md).
+  came after the model last explained (by the gate or a jump) a report of each sensor it
+  takes: a report is tested with :math:`\tau` since its sensor's, the priors take the
+  earliest, at least one step T and at most ``common_steps`` steps.  From a later step it
+  read two steps' range-rate error as the acceleration: −9.5 m/s² for −4.5 when the radar
+  failed a step before both, −8.2 when only the camera reported in between.  A spike or a
+  ghost jumps in range far beyond the widening (0.4 m at τ = 0.5 s).  Without the jump,
+  sensors failing together locked the filter onto a stale acceleration (docs/theory/federated.md).
 * **Window** (per sensor): the sum of the last W values
   :math:`\min(\epsilon_\nu, \epsilon_\times, \chi^2_m(p_c))`, is compared with
   :math:`\chi^2_{mW}(1-\alpha)` (reports confirmed beyond the gate stay out).  A failing

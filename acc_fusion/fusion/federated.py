@@ -209,6 +209,7 @@ class FederatedFilter(Estimator):
                 self._take_manoeuvre(manoeuvre)
             if jumped.any():  # since the model last explained a report it now fails to
                 start = jump_start(accepted, nis, fdi.gate, self._explained_at)
+                jumped &= start < np.inf  # none used (isolated meanwhile): no jump to take
                 g = jump_vectors(self._t, start[None], fdi.dt, fdi.config.common_steps)[0]
                 self._take_jump(jumped, var, g[jumped])
             self._explained_at[accepted & ((nis <= fdi.gate) | jumped[None])] = self._t

@@ -209,8 +209,9 @@ def _federated_step(
                        suspect, last, frozen, age, accepted, rejoined, manoeuvre, wide,
                        jump)  # fmt: skip
             if jump[k]:  # since the model last explained a report it now fails to explain
-                _jump_one(t, _jump_start(accepted[k], nis[k], gate, explained_at[:, k]), var[3],
-                          common_steps, g)  # fmt: skip
+                start = _jump_start(accepted[k], nis[k], gate, explained_at[:, k])
+                jump[k] = start < np.inf  # none used (isolated meanwhile): no jump to take
+                _jump_one(t, start, var[3], common_steps, g)
             for s in range(n_s):
                 if accepted[k, s] and (nis[k, s] <= gate or jump[k]):
                     explained_at[s, k] = t
@@ -280,7 +281,8 @@ def _jump_one(t, explained_at, dt, steps, g):  # pragma: no cover - compiled
 def _jump_start(accepted, nis, gate, explained_at):  # pragma: no cover - compiled
     """The earliest of ``explained_at (S,)`` (the last step at which the model explained each
     sensor's report) over the sensors whose report is ``accepted`` beyond the ``gate``: when
-    the acceleration jumped, the last evidence that it had not yet."""
+    the acceleration jumped, the last evidence that it had not yet (``inf`` if there is none).
+    """
     start = np.inf
     for s in range(explained_at.size):
         if accepted[s] and nis[s] > gate:
