@@ -32,6 +32,11 @@ each sensor's reports against the method's prediction and the share beyond the g
 ego's acceleration fed one step late gave 5.0 and 4.9 % on A10KW).  Results:
 ``docs/theory/federated.md``.
 
+With ``--by-age`` it also prints, per method, every alert class by the time since the vehicle
+entered the network at the alert's onset (:data:`AGE_BINS`), against the kilometres driven at
+those ages: where in a trip the alerts fall (SUMO inserts a vehicle at its departure, at the
+speed its gap allows, and every sensor starts a new track on its leader then).
+
     python scripts/federated_breakdown.py --sumocfg $SUMO_HOME/tools/game/A10KW.sumocfg --end 600
     python scripts/federated_breakdown.py --net motorway --end 300 --set fusion.fdi.manoeuvre=false
 """
@@ -54,6 +59,7 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.core.slots import resize_all
 from acc_fusion.metrics.events import FCWMetrics
+from acc_fusion.metrics.stats import poisson_rate_interval
 from acc_fusion.sim.closed_loop import StepView, simulate
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
@@ -63,6 +69,8 @@ METHODS = ("centralized", "federated")
 CLASSES = ("sensing_false", "nuisance", "crash_relevant")
 HEADER = ("mechanism", "alerts", "|gap err| m", "|rate err| m/s")
 MECHANISMS = ("isolated", "manoeuvre", "new leader", "young track", "gated", "one sensor", "other")
+#: Bins of the time since the vehicle entered [s] (``--by-age``).
+AGE_BINS = (0.0, 10.0, 20.0, 40.0, 80.0, np.inf)
 
 
 @dataclass
@@ -76,6 +84,7 @@ class Alert:
     mechanism: str
     gap_error: float
     rate_error: float
+    age: float
 
 
 class Breakdown:
@@ -99,6 +108,8 @@ class Breakdown:
         self.accel_var = {m: np.zeros(n) for m in METHODS}
         self.leader = np.full(n, -1, dtype=np.int64)
         self.leader_since = np.full(n, -np.inf)
+        self.dt, self.entered = dt, np.full(n, np.nan)  # when each slot's vehicle entered
+        self.km_by_age = np.zeros(len(AGE_BINS) - 1)
         self.reported_at = None
         self.sensors: tuple[str, ...] = ()
         # Per method and sensor: the sum of the NIS, the reports tested, those beyond the gate.
@@ -117,6 +128,10 @@ class Breakdown:
             self.nis = {m: np.zeros((3, len(self.sensors))) for m in METHODS}
         resize_all(self.metrics.values(), k)
         self._forget(new)
+        entered = self.entered[:k]
+        entered[active & np.isnan(entered)] = t
+        age = np.searchsorted(AGE_BINS, t - entered[active], side="right") - 1
+        np.add.at(self.km_by_age, age, frame.ego_speed[active] * self.dt / 1000.0)
         changed = frame.leader_id != self.leader[:k]
         self.leader[:k] = frame.leader_id
         self.leader_since[:k][changed] = t
@@ -149,6 +164,7 @@ class Breakdown:
         k = new.size
         self.isolated_at[:k][new] = -np.inf
         self.leader_since[:k][new] = -np.inf
+        self.entered[:k][new] = np.nan
         for m in METHODS:
             self.valid_since[m][:k][new] = np.inf
             self.gated_at[m][:k][new] = -np.inf
@@ -170,6 +186,7 @@ class Breakdown:
             self.onset[m][int(slot)] = (
                 ids[slot], t, self._mechanism(m, int(slot), t),
                 est.x[slot, 0] - frame.gap[slot], est.x[slot, 1] - frame.range_rate[slot],
+                t - self.entered[slot],
             )  # fmt: skip
         self._close(m, k, t)
 
@@ -182,9 +199,9 @@ class Breakdown:
         for slot in np.flatnonzero(done.any(axis=0)):
             snap = self.onset[m].pop(int(slot), None)
             if snap is not None:
-                vid, start, mech, e_gap, e_rate = snap
+                vid, start, mech, e_gap, e_rate, age = snap
                 kind = CLASSES[int(np.argmax(done[:, slot]))]
-                self.alerts[m].append(Alert(vid, start, t, kind, mech, e_gap, e_rate))
+                self.alerts[m].append(Alert(vid, start, t, kind, mech, e_gap, e_rate, age))
         self.classes[m][:, :k] = totals
 
     def _mechanism(self, m: str, slot: int, t: float) -> str:
@@ -263,6 +280,30 @@ def report(brk: Breakdown, summaries, tolerance: float) -> str:
     return "\n".join(lines)
 
 
+def report_by_age(brk: Breakdown) -> str:
+    """Per method, each alert class per 100 km (exact Poisson intervals) by the time since the
+    vehicle entered at the alert's onset, with the kilometres driven at those ages."""
+    lines = ["\nalerts by the time since the vehicle entered, per 100 km"]
+    edges = [f"{lo:g}-{hi:g} s" for lo, hi in zip(AGE_BINS[:-1], AGE_BINS[1:], strict=True)]
+    for m, alerts in brk.alerts.items():
+        lines.append(f"{m}:")
+        for b, label in enumerate(edges):
+            km = brk.km_by_age[b]
+            cells = []
+            for kind in CLASSES:
+                n = sum(1 for a in alerts if a.kind == kind and _age_bin(a.age) == b)
+                lo, hi = poisson_rate_interval(n, km / 100.0)
+                rate = 100.0 * n / km if km > 0 else float("nan")
+                cells.append(f"{kind} {n} ({rate:.2f} [{lo:.2f}, {hi:.2f}])")
+            lines.append(f"  {label:>12} {km:8.1f} km  " + "  ".join(cells))
+    return "\n".join(lines)
+
+
+def _age_bin(age: float) -> int:
+    """The :data:`AGE_BINS` bin of ``age`` [s]."""
+    return int(np.searchsorted(AGE_BINS, age, side="right")) - 1
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     where = p.add_mutually_exclusive_group(required=True)
@@ -274,6 +315,11 @@ def main() -> None:
         type=positive_float,
         default=2.0,
         help="window [s] before an onset in which a mechanism counts (default 2)",
+    )
+    p.add_argument(
+        "--by-age",
+        action="store_true",
+        help="also print every alert class by the time since the vehicle entered",
     )
     add_traffic_arguments(p)
     add_sim_arguments(p, None)
@@ -293,6 +339,8 @@ def main() -> None:
         result = simulate(replace(sim, dt=source.dt), source=source, on_step=brk, warnings_on=False)
         brk.finish()
     print(report(brk, result.summaries, sim.tolerance))
+    if args.by_age:
+        print(report_by_age(brk))
 
 
 if __name__ == "__main__":

@@ -139,7 +139,14 @@ def test_bench_sumo_prints_the_floor_and_the_overhead_ratio():
 
 
 def test_federated_breakdown_attributes_every_seen_alert():
-    out = run("federated_breakdown.py", "--net", "motorway", "--end", "30").stdout
+    out = run("federated_breakdown.py", "--net", "motorway", "--end", "30", "--by-age").stdout
     assert "federated only:" in out and "centralized only:" in out
     assert out.count("the run's own metrics") == 2
     assert out.count("mean NIS of the reports against its prediction") == 2
+    # By age: the kilometres of the bins add up to the exposure; none is older than the run.
+    exposure = float(re.search(r"exposure ([0-9.]+) km", out).group(1))
+    rows = re.findall(r"^ +([0-9.]+-[0-9.inf]+) s +([0-9.]+) km", out, flags=re.M)
+    assert len(rows) == 2 * 5
+    km = {label: float(v) for label, v in rows}
+    assert sum(km.values()) == pytest.approx(exposure, rel=1e-3)
+    assert km["40-80"] == km["80-inf"] == 0.0 < km["0-10"]
