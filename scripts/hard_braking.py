@@ -7,25 +7,51 @@ drivers exceed only for an unexpected object, the alert classes' crash-relevant 
 ends when it falls below it. Prints the onsets per 100 km of driving and the share of driving
 time spent braking that hard. ``--car-decel`` sets the ``decel`` of every passenger-car type
 first (SUMO's Krauss drivers brake up to it in ordinary following; the bundled networks keep
-SUMO's default 4.5 m/s²), for the sensitivity in docs/theory/alert-classes.md. The last line
-is ``onsets_per_100km=<x> share_of_time=<y> km=<z>``.
+SUMO's default 4.5 m/s²), for the sensitivity in docs/theory/alert-classes.md.
+``--by-distance`` also prints the onsets by the distance the vehicle had driven since it
+entered the network (SUMO's odometer, ``vehicle.getDistance``; bins :data:`DISTANCE_BINS`):
+how far downstream the traffic settles after SUMO inserts its vehicles. The last line is
+``onsets_per_100km=<x> share_of_time=<y> km=<z>``.
 
     python scripts/hard_braking.py                      # bundled motorway, 300 s
     python scripts/hard_braking.py --car-decel 3.0      # cars braking at most 3 m/s² normally
     python scripts/hard_braking.py --sumocfg my.sumocfg --end 600 --threshold 3.0
+    python scripts/hard_braking.py --by-distance        # where along the trips
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 
+import numpy as np
 from tqdm.auto import tqdm
 
 from acc_fusion.cli.common import add_scenario_arguments, scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.launch import load_api, sumo_command
+
+#: Bins of the distance driven since entering the network [m] (``--by-distance``).
+DISTANCE_BINS = (0.0, 500.0, 1000.0, 2000.0, 4000.0, np.inf)
+
+
+@dataclass
+class HardBraking:
+    """What :func:`hard_braking` counted: onsets and kilometres, in all and by the distance
+    since entering (:data:`DISTANCE_BINS`), and the share of the vehicle-time spent braking."""
+
+    onsets: int
+    km: float
+    share: float
+    onsets_by_distance: np.ndarray
+    km_by_distance: np.ndarray
+
+
+def _bin(distance: float) -> int:
+    """The :data:`DISTANCE_BINS` bin of ``distance`` [m]."""
+    return int(np.searchsorted(DISTANCE_BINS, distance, side="right")) - 1
 
 
 def hard_braking(
@@ -35,12 +61,13 @@ def hard_braking(
     threshold: float,
     car_decel: float | None = None,
     progress: bool = True,
-) -> tuple[int, float, float]:
-    """``(onsets, km, share)``: hard-braking onsets, kilometres driven and the share of the
-    vehicle-time spent braking at ``threshold`` [m/s²] or harder, from ``warmup`` to ``end``."""
+) -> HardBraking:
+    """Hard-braking onsets, kilometres driven and the share of the vehicle-time spent braking
+    at ``threshold`` [m/s²] or harder, from ``warmup`` to ``end``."""
     sumo = load_api(False)
     sumo.start(sumo_command(config))
-    onsets, metres, hard_time, time = 0, 0.0, 0.0, 0.0
+    onsets, hard_time, time = 0, 0.0, 0.0
+    by_onsets, by_km = np.zeros(len(DISTANCE_BINS) - 1), np.zeros(len(DISTANCE_BINS) - 1)
     braking: set[str] = set()
     try:
         veh, dt = sumo.vehicle, sumo.simulation.getDeltaT()
@@ -59,16 +86,20 @@ def hard_braking(
                 continue
             now = set()
             for vid in veh.getIDList():
-                metres += veh.getSpeed(vid) * dt
+                b = _bin(veh.getDistance(vid))
+                by_km[b] += veh.getSpeed(vid) * dt / 1000.0
                 time += dt
                 if veh.getAcceleration(vid) <= -threshold:
                     now.add(vid)
+                    if vid not in braking:
+                        by_onsets[b] += 1
             onsets += len(now - braking)
             hard_time += len(now) * dt
             braking = now
     finally:
         sumo.close()
-    return onsets, metres / 1000.0, hard_time / max(time, 1e-12)
+    share = hard_time / max(time, 1e-12)
+    return HardBraking(onsets, float(by_km.sum()), share, by_onsets, by_km)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -76,6 +107,11 @@ def main(argv: list[str] | None = None) -> int:
     add_scenario_arguments(p, 60.0, "counting")
     p.add_argument("--threshold", type=float, default=3.4, help="hard braking from [m/s²] (3.4)")
     p.add_argument("--car-decel", type=float, help="set every car type's decel [m/s²] first")
+    p.add_argument(
+        "--by-distance",
+        action="store_true",
+        help="also print the onsets by the distance driven since entering the network",
+    )
     args = p.parse_args(argv)
     try:
         if not args.threshold > 0:
@@ -83,12 +119,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.car_decel is not None and not args.car_decel > 0:
             raise AccFusionError(f"--car-decel must be > 0 m/s², got {args.car_decel:g}")
         path, config = scenario_config(args)
-        onsets, km, share = hard_braking(
-            config, args.end, args.warmup, args.threshold, args.car_decel
-        )
+        hb = hard_braking(config, args.end, args.warmup, args.threshold, args.car_decel)
     except AccFusionError as exc:
         print(f"hard_braking.py: error: {exc}", file=sys.stderr)
         return 2
+    onsets, km, share = hb.onsets, hb.km, hb.share
     if km <= 0:
         print("hard_braking.py: error: no vehicle drove after the warm-up", file=sys.stderr)
         return 2
@@ -99,6 +134,12 @@ def main(argv: list[str] | None = None) -> int:
         f"  braking at {args.threshold:g} m/s² or harder: {onsets} onsets, "
         f"{rate:.1f} per 100 km, {share:.2%} of the driving time"
     )
+    if args.by_distance:
+        print("  by the distance driven since entering the network:")
+        edges = zip(DISTANCE_BINS[:-1], DISTANCE_BINS[1:], strict=True)
+        for (lo, hi), n, k in zip(edges, hb.onsets_by_distance, hb.km_by_distance, strict=True):
+            per = f"{100.0 * n / k:.1f} per 100 km" if k > 0 else "no driving"
+            print(f"  {lo:g}-{hi:g} m: {k:.0f} km, {n:.0f} onsets, {per}")
     print(f"onsets_per_100km={rate:.2f} share_of_time={share:.4f} km={km:.1f}")
     return 0
 
