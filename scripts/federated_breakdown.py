@@ -130,8 +130,11 @@ class Breakdown:
         self._forget(new)
         entered = self.entered[:k]
         entered[active & np.isnan(entered)] = t
-        age = np.searchsorted(AGE_BINS, t - entered[active], side="right") - 1
-        np.add.at(self.km_by_age, age, frame.ego_speed[active] * self.dt / 1000.0)
+        np.add.at(
+            self.km_by_age,
+            _age_bin(t - entered[active]),
+            frame.ego_speed[active] * self.dt / 1000.0,
+        )
         changed = frame.leader_id != self.leader[:k]
         self.leader[:k] = frame.leader_id
         self.leader_since[:k][changed] = t
@@ -299,9 +302,9 @@ def report_by_age(brk: Breakdown) -> str:
     return "\n".join(lines)
 
 
-def _age_bin(age: float) -> int:
-    """The :data:`AGE_BINS` bin of ``age`` [s]."""
-    return int(np.searchsorted(AGE_BINS, age, side="right")) - 1
+def _age_bin(age):
+    """The :data:`AGE_BINS` bin of ``age`` [s] (a number or an array)."""
+    return np.searchsorted(AGE_BINS, age, side="right") - 1
 
 
 def main() -> None:

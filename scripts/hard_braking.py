@@ -22,6 +22,8 @@ how far downstream the traffic settles after SUMO inserts its vehicles. The last
 from __future__ import annotations
 
 import argparse
+import bisect
+import math
 import sys
 from dataclasses import dataclass
 
@@ -34,7 +36,7 @@ from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.launch import load_api, sumo_command
 
 #: Bins of the distance driven since entering the network [m] (``--by-distance``).
-DISTANCE_BINS = (0.0, 500.0, 1000.0, 2000.0, 4000.0, np.inf)
+DISTANCE_BINS = (0.0, 500.0, 1000.0, 2000.0, 4000.0, math.inf)
 
 
 @dataclass
@@ -50,8 +52,8 @@ class HardBraking:
 
 
 def _bin(distance: float) -> int:
-    """The :data:`DISTANCE_BINS` bin of ``distance`` [m]."""
-    return int(np.searchsorted(DISTANCE_BINS, distance, side="right")) - 1
+    """The :data:`DISTANCE_BINS` bin of ``distance`` [m] (per vehicle and step: no numpy)."""
+    return bisect.bisect_right(DISTANCE_BINS, distance) - 1
 
 
 def hard_braking(
