@@ -18,14 +18,13 @@ local filter's own innovation with its information share undone).  Two tests use
   of two sensors measuring one quantity, Isermann 2006, ch. 10).  A confirmed report is the
   road, not a fault, and is not counted as evidence of one: a lead's braking onset shows at
   once in the radar's precise range-rate, beyond the gate of a model that expected no jerk,
-  and the infrared camera
-  reports the same, while a spike, a ghost or a stuck value disagrees with it.  Two unrelated
-  spikes of the two sensors within a few steps fail the gate together but disagree; when
-  every failing report was used (a "common cause") the federated filter's gap RMSE with 2 %
-  spikes on both sensors was 1.87x healthy (``scripts/fault_tolerance.py --runs 100``),
-  1.00x with the check.  Checking against the latest report, not only one of the same
-  step, keeps the radar's reports between two camera frames (Euro NCAP ``ccrb``, 50
-  healthy runs: 133 isolated pair-sensor-steps before, 0 after).
+  and the infrared camera reports the same, while a spike, a ghost or a stuck value
+  disagrees with it.  Two unrelated spikes of the two sensors within a few steps fail the
+  gate together but disagree; when every failing report was used (a "common cause") the
+  federated gap RMSE with 2 % spikes on both was 1.87x healthy, 1.00x with the check.
+  Checking against the latest report, not only one of the same step, keeps the radar's
+  reports between two camera frames (Euro NCAP ``ccrb``, 50 healthy runs: 133 isolated
+  pair-sensor-steps before, 0 after).
 * **Acceleration jump** (per pair): when every reporting sensor in the fusion fails the
   gate and no report confirms another, the sensors agree that the model is wrong, not that
   one of them is (two independent healthy sensors fail a 0.9999 gate together with
@@ -36,9 +35,8 @@ local filter's own innovation with its information share undone).  Two tests use
   priors take the widening before the update; it still counts in the window.  The jump
   came after the model last explained (by the gate or a jump) a report of each sensor it
   takes: a report is tested with :math:`\tau` since its sensor's, the priors take the
-  earliest, at least one step T and at most ``common_steps`` steps.  From a later step it
-  read two steps' range-rate error as the acceleration: −9.5 m/s² for −4.5 when the radar
-  failed a step before both, −8.2 when only the camera reported in between.  A spike or a
+  earliest, at least one step T and at most ``common_steps`` steps (from a later step it
+  read two steps' range-rate error as the acceleration, −9.5 m/s² for −4.5).  A spike or a
   ghost jumps in range far beyond the widening (0.4 m at τ = 0.5 s).  Without the jump,
   sensors failing together locked the filter onto a stale acceleration (docs/theory/federated.md).
 * **Window** (per sensor): the sum of the last W values
@@ -49,29 +47,31 @@ local filter's own innovation with its information share undone).  Two tests use
   re-initialises its local filter from the fused estimate).  Clipping keeps one spike from
   isolating a sensor (it adds at most :math:`\chi^2_m(p_c)` = 9.2 for m = 2), while a
   persistent fault (bias, stuck value, noise burst) fills the window with large values.  The
-  NIS alone mixes the sensor's error with the motion model's, which every sensor shares: on
-  SUMO's A10KW (0.5 s steps) the mean NIS of healthy sensors was 8.6 (radar) and 5.4
-  instead of 2 (2.3 and 2.2 since the ego's acceleration is no longer one step late), the
-  windows failed, and the federated filter raised more sensing-false alerts.  The cross
-  NIS is :math:`\chi^2_m` for healthy sensors whatever the model predicted, and a fault
-  shows in both (it disagrees with the prediction *and* with the other sensor), so the
-  smaller of the two is the evidence; it is never larger than the NIS, so the false-
-  isolation rate can only fall.  Without another sensor's recent report the NIS alone
-  decides, as before.  Breakdown and figures: ``scripts/federated_breakdown.py`` and
-  ``docs/theory/federated.md``.
+  NIS alone mixes the sensor's error with the motion model's, which every sensor shares (on
+  SUMO's A10KW, 0.5 s steps, the windows of healthy sensors failed).  The cross NIS is
+  :math:`\chi^2_m` for healthy sensors whatever the model predicted, and a fault shows in
+  both (it disagrees with the prediction *and* with the other sensor), so the smaller of the
+  two is the evidence; never larger than the NIS, it can only lower the false-isolation
+  rate.  Without another sensor's recent report the NIS alone decides (breakdown and
+  figures: ``scripts/federated_breakdown.py``, ``docs/theory/federated.md``).
 * **Manoeuvre first** (``manoeuvre``, default on): a sensor's first failing window is taken for
-  a manoeuvre the motion model did not expect, not for a fault: the pair's filters get their
-  acceleration variance raised by ``init_accel_std²`` (the classic covariance reset on a
-  detected manoeuvre, Bar-Shalom, Li & Kirubarajan 2001, §11.2-11.3: the filter re-learns the
+  a manoeuvre the motion model did not expect, not for a fault: the pair's priors take a jump
+  of the relative acceleration at one of the last :math:`c` = ``common_steps`` steps, which
+  one unknown, :math:`P^- + \tfrac{\sigma_a^2}{c}\sum_{j=1}^{c} g_j g_j^\top` with
+  :math:`g_j = [(jT)^2/2, jT, 1]^\top` (a manoeuvre as a jump of the unknown input at an
+  unknown time, Bar-Shalom, Li & Kirubarajan 2001, §11.2-11.3: the filter re-learns the
   acceleration within a few reports), the sensor is marked *suspect* and its window restarts
-  after W/2 untested reports. A second failing window in a row isolates it (a fault persists
-  when the model has caught up); a passing one clears the suspicion, so a persistent fault is
-  isolated after 2.5W reports instead of W. Before the cross NIS this rule kept braking onsets
-  from isolating the healthy radar (``nhtsa_lvd``, 50 healthy runs: 1 193 isolated pair-sensor-
-  steps without it); now none is isolated either way. It still gives the noise-burst test time
-  to adapt R, and the filters time to re-learn before a biased radar's second window (with
-  ``--set fusion.fdi.manoeuvre=false`` the radar-bias row of ``scripts/fault_tolerance.py``
-  breaks its bound: 1.14); it costs a few alerts under faults and one on ``make run``.
+  after W/2 untested reports. A window often fails after the model has caught up; the same
+  update then tests the jump, and a precise range-rate that agrees shows it small (a raise
+  of the acceleration variance alone let the next camera-only step set the acceleration: a
+  federated-only alert on ``make run``; over one step, :math:`c = 1`, the jump read the noise
+  of the report that completed the window as acceleration; docs/theory/federated.md). A
+  second failing window in a row isolates the sensor (a fault persists when the model has
+  caught up); a passing one clears the suspicion, so a persistent fault is isolated after
+  2.5W reports instead of W. The rule gives the noise-burst test time to adapt R, and the
+  filters time to re-learn before a biased radar's second window (with ``--set
+  fusion.fdi.manoeuvre=false`` the radar-bias row of ``scripts/fault_tolerance.py`` breaks
+  its bound: 1.14).
 
 * **Frozen output** (per sensor, a stuck sensor): a healthy sensor's successive reports
   differ by at least their noise, a stuck one repeats itself.  Over K disjoint pairs of
@@ -173,8 +173,8 @@ class FDIConfig:
         confirm_tracks: confirm a track only once every sensor that should see it does.
         common_steps: reports of another sensor at most this many steps old confirm a report
             (default 3).
-        manoeuvre: take a sensor's first failing window for a manoeuvre (raise the filters'
-            acceleration variance) and isolate only on a second one (default True).
+        manoeuvre: take a sensor's first failing window for a manoeuvre (the filters' priors
+            take a jump of the acceleration) and isolate only on a second one (default True).
         stuck_pairs: disjoint pairs of successive reports K summed by the frozen-output test
             (default 5: 10 reports, 0.5 s of radar, 1 s of infrared).
         stuck_alpha: probability that the frozen-output test flags a healthy sensor whose

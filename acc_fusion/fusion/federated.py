@@ -206,7 +206,7 @@ class FederatedFilter(Estimator):
             accepted, rejoined, manoeuvre, jumped = fdi.step(nis.T, reporting.T, z, r, wide.T)
             accepted, rejoined = accepted.T, rejoined.T
             if manoeuvre.any():
-                self._take_manoeuvre(manoeuvre)
+                self._take_manoeuvre(manoeuvre, var)
             if jumped.any():  # since the model last explained a report it now fails to
                 start = jump_start(accepted, nis, fdi.gate, self._explained_at)
                 jumped &= start < np.inf  # none used (isolated meanwhile): no jump to take
@@ -253,19 +253,16 @@ class FederatedFilter(Estimator):
             self._drop(lost)
         return (accepted | consumed).any(axis=0)
 
-    def _take_manoeuvre(self, pairs: np.ndarray) -> None:
-        """Raise the acceleration variance of the master and of every local filter of
-        ``pairs (N,)`` by ``init_accel_std²`` (the locals' times their inflation), as
+    def _take_manoeuvre(self, pairs: np.ndarray, var: float) -> None:
+        r"""A jump of the acceleration at one of the last ``common_steps`` steps c, which one
+        unknown, in ``pairs (N,)``: the mean of :math:`\sigma_a^2 g g^\top` over
+        :math:`\tau = T, \dots, cT` (``var``: :math:`\sigma_a^2`), added as
         :func:`_federated_step` does (:mod:`acc_fusion.fusion.fdi`, "manoeuvre first")."""
-        var = self.config.filter.init_accel_std**2
-        pm = np.array(self.master.p[0])
-        pm[pairs, -1, -1] += var
-        self.master.assign(0, pairs, np.array(self.master.x[0]), pm)
-        infl = self._inflation()
-        for s in range(self.n_sensors):
-            pl = np.array(self.locals.p[s])
-            pl[pairs, -1, -1] += var * infl[s][pairs]
-            self.locals.assign(s, pairs, np.array(self.locals.x[s]), pl)
+        fdi = self.fdi
+        span = max(fdi.config.common_steps, 1)
+        for j in range(1, span + 1):
+            g = jump_vectors(j * fdi.dt, np.zeros((1, 1)), fdi.dt, span)[0, 0]
+            self._take_jump(pairs, var / span, np.broadcast_to(g, (int(pairs.sum()), 3)))
 
     def _take_jump(self, pairs: np.ndarray, var: float, g: np.ndarray) -> None:
         r"""Add :math:`\sigma_a^2 g g^\top` (``var``, ``g (P, 3)``: an acceleration jump of

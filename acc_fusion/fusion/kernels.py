@@ -157,7 +157,7 @@ def _federated_step(
     manoeuvre = np.zeros(n_pairs, dtype=np.bool_)
     jump = np.zeros(n_pairs, dtype=np.bool_)
     wide = np.full((n_pairs, n_s), np.inf)
-    g, pw = np.empty(n), np.empty((n, n))
+    g, gm, pw = np.empty(n), np.empty(n), np.empty((n, n))
     active = np.zeros((n_s, n_pairs), dtype=np.bool_)
     any_rejoined = False
     for k in range(n_pairs):
@@ -217,15 +217,13 @@ def _federated_step(
                     explained_at[s, k] = t
         else:
             accepted[k] = reporting[k]
-        if manoeuvre[k]:  # the acceleration may have jumped: let the filters re-learn it
-            pm[k, n - 1, n - 1] += accel_var
-            for s in range(n_s):
-                pl[s, k, n - 1, n - 1] += accel_var * _inflation_one(beta[s, k], inflate)
+        if manoeuvre[k]:  # a jump at one of the last common_steps steps, which unknown
+            span = max(common_steps, 1)
+            for j in range(1, span + 1):
+                _jump_one(j * var[3], 0.0, var[3], span, gm)
+                _widen_all(k, gm, accel_var / span, pm, pl, beta, inflate)
         if jump[k]:  # it jumped during the step: the priors take it
-            _widen_one(pm[k], g, accel_var, pm[k])
-            for s in range(n_s):
-                scale = accel_var * _inflation_one(beta[s, k], inflate)
-                _widen_one(pl[s, k], g, scale, pl[s, k])
+            _widen_all(k, g, accel_var, pm, pl, beta, inflate)
         for s in range(n_s):
             if accepted[k, s]:
                 update_one(xl[s, k], pl[s, k], h, z[s, k], r[s, k], m, pht, kg, s_mat, si,
@@ -315,6 +313,15 @@ def _widen_one(p, g, var, out):  # pragma: no cover - compiled
     for a in range(p.shape[0]):
         for b in range(p.shape[1]):
             out[a, b] = p[a, b] + var * g[a] * g[b]
+
+
+@njit(cache=True, inline="always")
+def _widen_all(k, g, var, pm, pl, beta, inflate):  # pragma: no cover - compiled
+    """:func:`_widen_one` of pair ``k``'s master prior ``pm`` and of its locals ``pl`` (times
+    their inflation)."""
+    _widen_one(pm[k], g, var, pm[k])
+    for s in range(pl.shape[0]):
+        _widen_one(pl[s, k], g, var * _inflation_one(beta[s, k], inflate), pl[s, k])
 
 
 @njit(cache=True, inline="always")
