@@ -15,9 +15,11 @@ fault, and a lasting radar bias with and without its accommodation
 (:func:`acc_fusion.studies.estimation.lasting_bias_table`).  The last line is
 ``worst_ratio_to_bound=<x>`` (a fault-tolerant federated filter has x <= 1).  ``--set
 fusion.fdi.KEY=VALUE`` runs every table with another setting of the fault detector
-(:class:`acc_fusion.fusion.fdi.FDIConfig`).
+(:class:`acc_fusion.fusion.fdi.FDIConfig`).  ``--seeds K`` runs K seeds and prints, per
+fault, the median and the worst ratio to the bound, and the alerts summed over the seeds.
 
     python scripts/fault_tolerance.py --runs 100 --seed 0 --plot out/fault_tolerance.png
+    python scripts/fault_tolerance.py --seeds 10
     python scripts/fault_tolerance.py --quick
     python scripts/fault_tolerance.py --quick --set fusion.fdi.manoeuvre=false
 """
@@ -27,8 +29,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from tqdm.auto import tqdm
 
-from acc_fusion.cli.common import sim_config, study_parser
+from acc_fusion.cli.common import positive_int, sim_config, study_parser
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.table import Table
@@ -93,18 +96,17 @@ def scenarios(start: float = ONSET, end: float = END) -> dict[str, dict[str, tup
     return out
 
 
-def alert_table(n_runs: int, seed: int, fdi: FDIConfig) -> Table:
+#: Short column names of the alert table.
+ALERT_SHORT = {FEDERATED: "fed", "centralized": "central", "radar alone": "radar",
+               "infrared alone": "infrared"}  # fmt: skip
+
+
+def alert_counts(n_runs: int, seed: int, fdi: FDIConfig) -> dict[str, np.ndarray]:
     """Alerts under each fault: the FCW warnings of each method (fault detector ``fdi``),
     classed from truth (:mod:`acc_fusion.metrics.alert_classes`), on the random FCW suite
-    (open loop)."""
-    short = {FEDERATED: "fed", "centralized": "central", "radar alone": "radar",
-             "infrared alone": "infrared"}  # fmt: skip
-    table = Table(
-        f"Alert classes under each fault: {n_runs} runs of {ALERT_DURATION:g} s of the "
-        f"{ALERT_SCENARIO} FCW suite, faults active from {ONSET:g} s to the end; sensing-false "
-        "alerts / crash-relevant situations missed",
-        ("fault", "relevant", *(f"{short[m]}_false/missed" for m in METHODS)),
-    )
+    (open loop). Fault -> ``(1 + methods, 2)`` counts: the crash-relevant situations, then
+    per method of :data:`METHODS` its sensing-false alerts and missed situations."""
+    out = {}
     for fault, faults in scenarios(ONSET, math.inf).items():
         res = simulate(
             SimConfig(
@@ -112,12 +114,60 @@ def alert_table(n_runs: int, seed: int, fdi: FDIConfig) -> Table:
                 methods=tuple(METHODS.values()), fusion=FusionConfig(fdi=fdi), **faults,
             )
         )  # fmt: skip
-        row = {"fault": fault, "relevant": res.summaries["federated"].relevant}
-        for label, method in METHODS.items():
-            st = res.summaries[method]
-            row[f"{short[label]}_false/missed"] = f"{st.sensing_false}/{st.relevant_missed}"
+        stats = [res.summaries[method] for method in METHODS.values()]
+        out[fault] = np.array(
+            [[res.summaries["federated"].relevant, 0]]
+            + [[st.sensing_false, st.relevant_missed] for st in stats]
+        )
+    return out
+
+
+def alert_table(counts: dict[str, np.ndarray], n_runs: int, seeds: str) -> Table:
+    """:func:`alert_counts` (of the ``seeds``, summed) as a table, with their sum over the
+    faults as its last row."""
+    table = Table(
+        f"Alert classes under each fault: {n_runs} runs of {ALERT_DURATION:g} s of the "
+        f"{ALERT_SCENARIO} FCW suite ({seeds}), faults active from {ONSET:g} s to the end; "
+        "sensing-false alerts / crash-relevant situations missed",
+        ("fault", "relevant", *(f"{short}_false/missed" for short in ALERT_SHORT.values())),
+    )
+    for fault, c in {**counts, "all faults": sum(counts.values())}.items():
+        row = {"fault": fault, "relevant": int(c[0, 0])}
+        for short, (false, missed) in zip(ALERT_SHORT.values(), c[1:], strict=True):
+            row[f"{short}_false/missed"] = f"{false}/{missed}"
         table.rows.append(row)
     return table
+
+
+def seeds_table(
+    n_runs: int, seeds: range, fdi: FDIConfig
+) -> tuple[Table, dict[str, np.ndarray], float]:
+    """:func:`fault_table` and :func:`alert_counts` of every seed of ``seeds``: per fault the
+    median and the worst federated ratio to its bound, the seed of the worst and the seeds
+    over the bound; the alert counts summed; the worst ratio of all."""
+    ratios: dict[str, list[float]] = {}
+    counts: dict[str, np.ndarray] = {}
+    for seed in tqdm(seeds, desc="seeds", unit="seed", leave=False):
+        for row in fault_table(n_runs, seed, fdi)[0].rows:
+            ratios.setdefault(row["fault"], []).append(row["ratio_to_bound"])
+        for fault, c in alert_counts(n_runs, seed, fdi).items():
+            counts[fault] = counts.get(fault, 0) + c
+    table = Table(
+        f"Fault tolerance over seeds {seeds[0]}-{seeds[-1]}: the federated gap RMSE's ratio "
+        f"to its bound, {n_runs} runs of {DURATION:g} s per seed",
+        ("fault", "median_ratio", "worst_ratio", "worst_seed", "seeds_over_bound"),
+    )
+    for fault, r in ratios.items():
+        table.rows.append(
+            {
+                "fault": fault,
+                "median_ratio": float(np.median(r)),
+                "worst_ratio": max(r),
+                "worst_seed": seeds[int(np.argmax(r))],
+                "seeds_over_bound": sum(x > 1.0 for x in r),
+            }
+        )
+    return table, counts, max(max(r) for r in ratios.values())
 
 
 #: What a detection is: isolation, R adapted to a noise burst, silence (a dropout), a report
@@ -267,19 +317,35 @@ def main(argv: list[str] | None = None) -> None:
         help="set a field of the fault detector for every table (repeatable), e.g. "
         "--set fusion.fdi.manoeuvre=false",
     )
+    parser.add_argument(
+        "--seeds",
+        type=positive_int,
+        default=1,
+        metavar="K",
+        help="run seeds --seed to --seed + K - 1 and print, per fault, the median and worst "
+        "ratio to the bound, and the alerts summed over the seeds (default 1)",
+    )
     args = parser.parse_args(argv)
     runs = QUICK_RUNS if args.quick else args.runs
     try:
         for item in args.overrides:
             if not item.startswith("fusion.fdi."):
                 raise ConfigError(f"--set takes fusion.fdi.KEY=VALUE here, got {item!r}")
+        if args.seeds > 1 and args.plot:
+            raise ConfigError("--plot draws one seed's table; leave out --seeds or --plot")
         fdi = sim_config(args).fusion.fdi
     except AccFusionError as exc:
         parser.exit(2, f"fault_tolerance.py: error: {exc}\n")
-    table, worst = fault_table(runs, args.seed, fdi)
+    seeds = range(args.seed, args.seed + args.seeds)
+    if args.seeds > 1:
+        table, counts, worst = seeds_table(runs, seeds, fdi)
+        label = f"seeds {seeds[0]}-{seeds[-1]} summed"
+    else:
+        table, worst = fault_table(runs, args.seed, fdi)
+        counts, label = alert_counts(runs, args.seed, fdi), f"seed {args.seed}"
     print(table.format())
     print()
-    print(alert_table(runs, args.seed, fdi).format())
+    print(alert_table(counts, runs, label).format())
     print()
     print(lasting_bias_table(runs, fdi=fdi).format())
     if args.plot:

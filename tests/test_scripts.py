@@ -90,6 +90,26 @@ def test_fault_tolerance(tmp_path):
     assert _row(off, 0, "healthy") == _row(out, 0, "healthy")
 
 
+def test_fault_tolerance_over_seeds(tmp_path):
+    """``--seeds 2`` gives, per fault, the worst of the two seeds' ratios and the alerts
+    summed over them."""
+    one = [run("fault_tolerance.py", "--runs", "10", "--seed", str(s)).stdout for s in (3, 4)]
+    both = run("fault_tolerance.py", "--runs", "10", "--seed", "3", "--seeds", "2").stdout
+    assert "Fault tolerance over seeds 3-4" in both and "(seeds 3-4 summed)" in both
+    worst = [float(out.strip().splitlines()[-1].split("=")[1]) for out in one]
+    assert both.strip().splitlines()[-1] == f"worst_ratio_to_bound={max(worst):.3f}"
+    for label in ("radar bias +5 m", "all faults"):
+        cells = [_row(out, 1, label).split()[-4:] for out in one]
+        summed = [
+            "/".join(str(int(a) + int(b)) for a, b in zip(x.split("/"), y.split("/"), strict=True))
+            for x, y in zip(*cells, strict=True)
+        ]
+        assert _row(both, 1, label).split()[-4:] == summed
+    assert _row(both, 2, "on") == _row(one[0], 2, "on")  # the lasting bias: one fixed seed
+    bad = run("fault_tolerance.py", "--seeds", "2", "--plot", str(tmp_path / "x.png"), ok=False)
+    assert bad.returncode == 2 and "leave out --seeds or --plot" in bad.stderr
+
+
 def _row(out: str, table: int, label: str) -> str:
     """The line of the ``table``-th table of ``out`` (tables are separated by blank lines)
     whose first column is ``label``."""
