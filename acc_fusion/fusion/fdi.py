@@ -64,16 +64,16 @@ local filter's own innovation with its information share undone).  Two tests use
   :math:`g_j = [(jT)^2/2, jT, 1]^\top` (a manoeuvre as a jump of the unknown input at an
   unknown time, Bar-Shalom, Li & Kirubarajan 2001, §11.2-11.3: the filter re-learns the
   acceleration within a few reports), the sensor is marked *suspect* and its window restarts
-  after W/2 untested reports. A window often fails after the model has caught up; the same
-  update then tests the jump, and a precise range-rate that agrees shows it small (a raise
-  of the acceleration variance alone let the next camera-only step set the acceleration: a
-  federated-only alert on ``make run``; over one step, :math:`c = 1`, the jump read the noise
-  of the report that completed the window as acceleration; docs/theory/federated.md). A
-  second failing window in a row isolates the sensor (a fault persists when the model has
-  caught up); a passing one clears the suspicion, so a persistent fault is isolated after
-  2.5W reports instead of W. The rule gives the noise-burst test time to adapt R, and the
-  filters time to re-learn before a biased radar's second window (``--set
-  fusion.fdi.manoeuvre=false``: see docs/theory/federated.md).
+  after W/2 untested reports. The jump is taken only if the report that completes the window
+  is used: one the gate rejects disagrees with the model *and* the other sensors, a fault's
+  sign, not a model error's (a biased radar's raise let the camera's next report set the
+  acceleration). A window often fails after the model has caught up; the same update then
+  tests the jump, and a precise range-rate that agrees shows it small (a raise of the
+  acceleration variance alone let a camera-only step set it; over one step, :math:`c = 1`,
+  the jump read the completing report's noise as acceleration; docs/theory/federated.md). A
+  second failing window in a row isolates the sensor; a passing one clears the suspicion, so
+  a persistent fault is isolated after 2.5W reports instead of W. The rule gives the
+  noise-burst test time to adapt R (``--set fusion.fdi.manoeuvre=false``: docs/theory/federated.md).
 * **Frozen output** (per sensor, a stuck sensor): a healthy sensor's successive reports
   differ by at least their noise, a stuck one repeats itself.  Over K disjoint pairs of
   successive reports (:math:`z_{2j}, z_{2j+1}`), the differences :math:`d_j = z_{2j+1} -
@@ -440,7 +440,7 @@ def window_one(
                 forget_bias(i, s, last)
             if fail and not isolated[i, s] and manoeuvre_first and not suspect[i, s]:
                 suspect[i, s] = True  # a manoeuvre, unless the next window fails too
-                manoeuvre[i] = True
+                manoeuvre[i] = manoeuvre[i] or accepted[i, s]  # (shows in a used report)
                 _clear_window(i, s, buf, total, count, pos)
                 count[i, s] = -(w // 2)
             elif fail != isolated[i, s] and not frozen[i, s]:  # newly isolated, or rejoining
