@@ -123,15 +123,15 @@ def alert_counts(n_runs: int, seed: int, fdi: FDIConfig) -> dict[str, np.ndarray
 
 
 def alert_table(counts: dict[str, np.ndarray], n_runs: int, seeds: str) -> Table:
-    """:func:`alert_counts` (of the ``seeds``, summed) as a table, with their sum over the
-    faults as its last row."""
+    """:func:`alert_counts` (of the ``seeds``, summed) as a table, with their sum over its
+    rows, the healthy one included, as its last row."""
     table = Table(
         f"Alert classes under each fault: {n_runs} runs of {ALERT_DURATION:g} s of the "
         f"{ALERT_SCENARIO} FCW suite ({seeds}), faults active from {ONSET:g} s to the end; "
         "sensing-false alerts / crash-relevant situations missed",
         ("fault", "relevant", *(f"{short}_false/missed" for short in ALERT_SHORT.values())),
     )
-    for fault, c in {**counts, "all faults": sum(counts.values())}.items():
+    for fault, c in {**counts, "all rows": sum(counts.values())}.items():
         row = {"fault": fault, "relevant": int(c[0, 0])}
         for short, (false, missed) in zip(ALERT_SHORT.values(), c[1:], strict=True):
             row[f"{short}_false/missed"] = f"{false}/{missed}"

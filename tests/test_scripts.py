@@ -85,7 +85,7 @@ def test_fault_tolerance(tmp_path):
     assert_png(png)
     # --set reaches every table: a shorter window changes each where the window test acts.
     short = run("fault_tolerance.py", "--runs", "20", "--set", "fusion.fdi.window=4").stdout
-    for table, label in ((0, "radar bias +5 m"), (1, "all faults"), (2, "on")):
+    for table, label in ((0, "radar bias +5 m"), (1, "all rows"), (2, "on")):
         assert _row(short, table, label) != _row(out, table, label)
     assert _row(short, 0, "healthy") == _row(out, 0, "healthy")
 
@@ -98,7 +98,7 @@ def test_fault_tolerance_over_seeds(tmp_path):
     assert "Fault tolerance over seeds 3-4" in both and "(seeds 3-4 summed)" in both
     worst = [float(out.strip().splitlines()[-1].split("=")[1]) for out in one]
     assert both.strip().splitlines()[-1] == f"worst_ratio_to_bound={max(worst):.3f}"
-    for label in ("radar bias +5 m", "all faults"):
+    for label in ("radar bias +5 m", "all rows"):
         cells = [_row(out, 1, label).split()[-4:] for out in one]
         summed = [
             "/".join(str(int(a) + int(b)) for a, b in zip(x.split("/"), y.split("/"), strict=True))
