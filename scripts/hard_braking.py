@@ -68,7 +68,7 @@ def hard_braking(
     at ``threshold`` [m/s²] or harder, from ``warmup`` to ``end``."""
     sumo = load_api(False)
     sumo.start(sumo_command(config))
-    onsets, hard_time, time = 0, 0.0, 0.0
+    hard_time, time = 0.0, 0.0
     by_onsets, by_km = np.zeros(len(DISTANCE_BINS) - 1), np.zeros(len(DISTANCE_BINS) - 1)
     braking: set[str] = set()
     try:
@@ -95,13 +95,12 @@ def hard_braking(
                     now.add(vid)
                     if vid not in braking:
                         by_onsets[b] += 1
-            onsets += len(now - braking)
             hard_time += len(now) * dt
             braking = now
     finally:
         sumo.close()
     share = hard_time / max(time, 1e-12)
-    return HardBraking(onsets, float(by_km.sum()), share, by_onsets, by_km)
+    return HardBraking(int(by_onsets.sum()), float(by_km.sum()), share, by_onsets, by_km)
 
 
 def main(argv: list[str] | None = None) -> int:
