@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.motion import MEAS_DIM, STATE_DIM
 
 
@@ -142,11 +143,14 @@ def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
     ``b (n,)``; the known input ``u (M,)`` with N a multiple of M: row k uses ``u[k % M]``
     (K banks of M pairs share the pairs' inputs).
     """
+    x, p, f, q, q_scale, mask, b, u = borrow((x, p, f, q, q_scale, mask, b, u))
     n = STATE_DIM
-    xt, fp = np.empty(n), np.empty((n, n))
+    owners = (np.empty(n), np.empty((n, n)))
+    xt, fp = borrow(owners)
     for k in range(x.shape[0]):
         if mask[k]:
             predict_one(x[k], p[k], f, q, q_scale[k], b, u[k % u.size], xt, fp)
+    keep_alive(owners)
 
 
 @njit(cache=True, inline="always")
@@ -178,6 +182,7 @@ def predict_one(x, p, f, q, scale, b, u, xt, fp):  # pragma: no cover - compiled
 def assign(x, p, mask, x_new, p_new, p_scale):  # pragma: no cover - compiled
     r"""Set the filters in ``mask (N,)`` in place: :math:`x = x_{new}`, :math:`P = s\,P_{new}`
     with the per-pair scale ``p_scale (N,)``."""
+    x, p, mask, x_new, p_new, p_scale = borrow((x, p, mask, x_new, p_new, p_scale))
     for k in range(x.shape[0]):
         if mask[k]:
             assign_one(x[k], p[k], x_new[k], p_new[k], p_scale[k])
@@ -191,6 +196,18 @@ def assign_one(x, p, x_new, p_new, scale):  # pragma: no cover - compiled
         x[i] = x_new[i]
         for j in range(n):
             p[i, j] = p_new[i, j] * scale
+
+
+@njit(cache=True, inline="always")
+def _row_scratch(m_all):  # pragma: no cover - compiled
+    """Work arrays of :func:`update` and :func:`innovation_nis` for measurements of up to
+    ``m_all`` rows: ``idx, hs, zs, rs, s_mat, si, work, y``."""
+    n = STATE_DIM
+    return (
+        np.empty(m_all, dtype=np.int64), np.empty((m_all, n)), np.empty(m_all),
+        np.empty((m_all, m_all)), np.empty((m_all, m_all)), np.empty((m_all, m_all)),
+        np.empty((m_all, m_all)), np.empty(m_all),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -207,14 +224,14 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     case) is updated with the row count known when compiling, which unrolls the loops over
     it (twice as fast); other pairs with their active rows gathered first.
     """
+    x, p, z, r, h, rows, nis = borrow((x, p, z, r, h, rows, nis))
     n_pairs, n = x.shape[0], STATE_DIM
     m_all = h.shape[0]
     full = m_all == MEAS_DIM
-    idx = np.empty(m_all, dtype=np.int64)
-    hs, zs, rs = np.empty((m_all, n)), np.empty(m_all), np.empty((m_all, m_all))
-    pht, kg = np.empty((n, m_all)), np.empty((n, m_all))
-    s_mat, si, work = np.empty((m_all, m_all)), np.empty((m_all, m_all)), np.empty((m_all, m_all))
-    y = np.empty(m_all)
+    owners = _row_scratch(m_all)
+    idx, hs, zs, rs, s_mat, si, work, y = borrow(owners)
+    kg_owners = (np.empty((n, m_all)), np.empty((n, m_all)))
+    pht, kg = borrow(kg_owners)
     for k in range(n_pairs):
         m = _active_rows(rows, k, idx)
         if m == 0:
@@ -224,6 +241,7 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
         else:
             _gather_rows(h, z[k], r[k], idx, m, hs, zs, rs)
             nis[k] = update_one(x[k], p[k], hs, zs, rs, m, pht, kg, s_mat, si, work, y)
+    keep_alive((owners, kg_owners))
 
 
 @njit(cache=True, inline="always")
@@ -291,13 +309,12 @@ def update_one(x, p, h, z, r, m, pht, kg, s_mat, si, work, y):  # pragma: no cov
 def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     r"""NIS :math:`y^\top (H P H^\top + R)^{-1} y` of each pair's active rows, without
     updating (all :data:`~acc_fusion.core.motion.MEAS_DIM` rows: unrolled, as :func:`update`)."""
-    n_pairs, n = x.shape[0], STATE_DIM
+    x, p, z, r, h, rows, nis = borrow((x, p, z, r, h, rows, nis))
+    n_pairs = x.shape[0]
     m_all = h.shape[0]
     full = m_all == MEAS_DIM
-    idx = np.empty(m_all, dtype=np.int64)
-    hs, zs, rs = np.empty((m_all, n)), np.empty(m_all), np.empty((m_all, m_all))
-    s_mat, si, work = np.empty((m_all, m_all)), np.empty((m_all, m_all)), np.empty((m_all, m_all))
-    y = np.empty(m_all)
+    owners = _row_scratch(m_all)
+    idx, hs, zs, rs, s_mat, si, work, y = borrow(owners)
     for k in range(n_pairs):
         m = _active_rows(rows, k, idx)
         if m == 0:
@@ -307,6 +324,7 @@ def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
         else:
             _gather_rows(h, z[k], r[k], idx, m, hs, zs, rs)
             nis[k] = nis_one(x[k], p[k], hs, zs, rs, m, s_mat, si, work, y)
+    keep_alive(owners)
 
 
 @njit(cache=True, inline="always")
@@ -343,12 +361,16 @@ def fuse(xs, ps, active, x_prior, p_prior, increments, x_out, p_out):  # pragma:
     last fusion: :math:`Y = Y_m + \sum_i (P_i^{-1} - Y_m)`, with :math:`Y_m = (P_m^-)^{-1}`.
     A pair with no active local keeps the prior.  Results go to ``x_out``, ``p_out``.
     """
+    xs, ps, active, x_prior, p_prior, x_out, p_out = borrow(
+        (xs, ps, active, x_prior, p_prior, x_out, p_out)
+    )
     n = STATE_DIM
-    info, vec = np.empty((n, n)), np.empty(n)
-    yi, ym, work = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    owners = (np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)))
+    info, vec, yi, ym, work = borrow(owners)
     for k in range(xs.shape[1]):
         fuse_one(xs, ps, active, k, x_prior[k], p_prior[k], increments, x_out[k], p_out[k],
                  info, vec, yi, ym, work)  # fmt: skip
+    keep_alive(owners)
 
 
 @njit(cache=True, inline="always")

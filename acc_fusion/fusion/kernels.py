@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.motion import (
     MEAS_DIM,
     STATE_DIM,
@@ -141,24 +142,33 @@ def _federated_step(
     rejoining sensors are known, the re-sharing they cause (of every pair, as the reference
     does), the bookkeeping and the loss of tracks whose every sensor is isolated or silent.
     """
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at = borrow(
+        (xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at)
+    )
+    beta, beta0, seen, needed, nis, used = borrow((beta, beta0, seen, needed, nis, used))
+    buf, total, count, pos, isolated, verdict, suspect, last, frozen, age = borrow(
+        (buf, total, count, pos, isolated, verdict, suspect, last, frozen, age)
+    )
     n_s, n_pairs = valid.shape
     n, m = STATE_DIM, MEAS_DIM
-    xt, fp, x0, p0 = np.empty(n), np.empty((n, n)), np.empty(n), np.empty((n, n))
-    pht, kg, y = np.empty((n, m)), np.empty((n, m)), np.empty(m)
-    s_mat, si, work_m = np.empty((m, m)), np.empty((m, m)), np.empty((m, m))
-    info, vec, yi, ym, work = (
-        np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    floats = (
+        np.empty(n), np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, m)),
+        np.empty((n, m)), np.empty(m), np.empty((m, m)), np.empty((m, m)), np.empty((m, m)),
+        np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
+        np.empty(n), np.empty((n, n)), np.empty(n_s), np.full((n_pairs, n_s), np.inf),
+        np.empty(n), np.empty(n), np.empty((n, n)),
     )  # fmt: skip
-    xf, pf, w = np.empty(n), np.empty((n, n)), np.empty(n_s)
-    reporting = np.zeros((n_pairs, n_s), dtype=np.bool_)
-    consumed = np.zeros((n_pairs, n_s), dtype=np.bool_)
-    accepted = np.zeros((n_pairs, n_s), dtype=np.bool_)
-    rejoined = np.zeros((n_pairs, n_s), dtype=np.bool_)
-    manoeuvre = np.zeros(n_pairs, dtype=np.bool_)
-    jump = np.zeros(n_pairs, dtype=np.bool_)
-    wide = np.full((n_pairs, n_s), np.inf)
-    g, gm, pw = np.empty(n), np.empty(n), np.empty((n, n))
-    active = np.zeros((n_s, n_pairs), dtype=np.bool_)
+    xt, fp, x0, p0, pht, kg, y, s_mat, si, work_m, info, vec, yi, ym, work, xf, pf, w, wide = (
+        borrow(floats[:19])
+    )
+    g, gm, pw = borrow(floats[19:])
+    flags = (
+        np.zeros((n_pairs, n_s), dtype=np.bool_), np.zeros((n_pairs, n_s), dtype=np.bool_),
+        np.zeros((n_pairs, n_s), dtype=np.bool_), np.zeros((n_pairs, n_s), dtype=np.bool_),
+        np.zeros(n_pairs, dtype=np.bool_), np.zeros(n_pairs, dtype=np.bool_),
+        np.zeros((n_s, n_pairs), dtype=np.bool_),
+    )  # fmt: skip
+    reporting, consumed, accepted, rejoined, manoeuvre, jump, active = borrow(flags)
     any_rejoined = False
     for k in range(n_pairs):
         uk = u[k % u.size]
@@ -263,6 +273,7 @@ def _federated_step(
             initialised[k] = False
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
                       verdict, suspect, last, frozen)  # fmt: skip
+    keep_alive((floats, flags))
 
 
 @njit(cache=True, inline="always")
@@ -380,6 +391,10 @@ def _drop_pairs(
     suspect, last, frozen,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
+    pairs, beta, beta0, seen, needed = borrow((pairs, beta, beta0, seen, needed))
+    buf, total, count, pos, isolated, verdict, suspect, last, frozen = borrow(
+        (buf, total, count, pos, isolated, verdict, suspect, last, frozen)
+    )
     for k in range(pairs.size):
         if pairs[k]:
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,

@@ -113,13 +113,17 @@ class Scratch:
         self.v, self.shortest = np.empty(width), np.empty(width)
         self.path, self.remaining = np.empty(width, np.int64), np.empty(width, np.int64)
         self.sr, self.sc = np.empty(rows, np.bool_), np.empty(width, np.bool_)
-        self.rows, self.cols = np.empty(rows, np.int64), np.empty(width, np.int64)
+        self.root = np.empty(rows + width, np.int64)  # the gate's parts (union-find)
+        self.head_r, self.head_c = np.empty(rows, np.int64), np.empty(rows, np.int64)
+        self.next_r, self.next_c = np.empty(rows, np.int64), np.empty(width, np.int64)
+        self.part_r, self.part_c = np.empty(rows, np.int64), np.empty(width, np.int64)
 
     def arrays(self) -> tuple:
         """The arrays as :func:`gnn` takes them."""
         return (
             self.cost, self.col4row, self.row4col, self.u, self.v, self.shortest, self.path,
-            self.remaining, self.sr, self.sc, self.rows, self.cols,
+            self.remaining, self.sr, self.sc, self.root, self.head_r, self.head_c, self.next_r,
+            self.next_c, self.part_r, self.part_c,
         )  # fmt: skip
 
 
@@ -129,35 +133,61 @@ def gnn(d2, n_r, n_c, gate, out, scratch):  # pragma: no cover - compiled
     (module docstring): ``out[i]`` receives the column of row ``i`` or -1 (missed);
     ``scratch``: :meth:`Scratch.arrays`.
 
-    Only the rows and columns with a pair inside the gate enter the assignment (a row without
-    one is missed, a column without one unassigned in every optimal solution), which keeps the
-    problems small when most objects are isolated."""
-    cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc, rows, cols = scratch
-    m_r, m_c = 0, 0
-    for j in range(n_c):
-        sc[j] = False
+    The problem splits into the connected parts of the gate's bipartite graph (rows and
+    columns joined by a pair inside the gate): outside its part a row's every cost is
+    :math:`\infty`, so the optimal assignment is the union of the parts' optimal assignments,
+    each solved alone by :func:`assign`.  A row without a gated pair is missed; a part of one
+    row and one column is assigned at once (its distance is below the gate, the cost of a
+    miss).  In traffic most parts are one track and its detection, so this keeps the cost
+    near linear in the tracks."""
+    cost, col4row, row4col, u, v, shortest, path, remaining, sr, sc = scratch[:10]
+    root, head_r, head_c, next_r, next_c, part_r, part_c = scratch[10:]
+    for i in range(n_r + n_c):
+        root[i] = i
     for i in range(n_r):
         out[i] = -1
-        gated = False
+        head_r[i], head_c[i] = -1, -1
         for j in range(n_c):
             if d2[i, j] < gate:
-                gated = True
-                sc[j] = True
-        if gated:
-            rows[m_r] = i
-            m_r += 1
-    for j in range(n_c):
-        if sc[j]:
-            cols[m_c] = j
-            m_c += 1
-    width = m_c + m_r
-    for a in range(m_r):
-        for b in range(m_c):
-            d = d2[rows[a], cols[b]]
-            cost[a, b] = d if d < gate else np.inf
-        for b in range(m_c, width):
-            cost[a, b] = gate if b - m_c == a else np.inf
-    assign(cost, m_r, width, col4row, row4col, u, v, shortest, path, remaining, sr, sc)
-    for a in range(m_r):
-        if col4row[a] < m_c:
-            out[rows[a]] = cols[col4row[a]]
+                a, b = _find_root(root, i), _find_root(root, n_r + j)
+                if a != b:  # a part's root is its lowest node: its lowest row
+                    root[max(a, b)] = min(a, b)
+    for i in range(n_r - 1, -1, -1):  # each part's rows and columns, in increasing order
+        top = _find_root(root, i)
+        next_r[i], head_r[top] = head_r[top], i
+    for j in range(n_c - 1, -1, -1):
+        top = _find_root(root, n_r + j)
+        if top < n_r:  # a column in no part has itself for root
+            next_c[j], head_c[top] = head_c[top], j
+    for top in range(n_r):
+        if root[top] != top or head_c[top] < 0:  # not a part's root, or a row gating nothing
+            continue
+        m_r, i = 0, head_r[top]
+        while i >= 0:
+            part_r[m_r], m_r, i = i, m_r + 1, next_r[i]
+        m_c, j = 0, head_c[top]
+        while j >= 0:
+            part_c[m_c], m_c, j = j, m_c + 1, next_c[j]
+        if m_r == 1 and m_c == 1:
+            out[top] = part_c[0]
+            continue
+        width = m_c + m_r
+        for a in range(m_r):
+            for b in range(m_c):
+                d = d2[part_r[a], part_c[b]]
+                cost[a, b] = d if d < gate else np.inf
+            for b in range(m_c, width):
+                cost[a, b] = gate if b - m_c == a else np.inf
+        assign(cost, m_r, width, col4row, row4col, u, v, shortest, path, remaining, sr, sc)
+        for a in range(m_r):
+            if col4row[a] < m_c:
+                out[part_r[a]] = part_c[col4row[a]]
+
+
+@njit(cache=True, inline="always")
+def _find_root(root, i):  # pragma: no cover - compiled
+    """The root of node ``i`` in the union-find forest ``root``, halving the path."""
+    while root[i] != i:
+        root[i] = root[root[i]]
+        i = root[i]
+    return i

@@ -53,6 +53,7 @@ from typing import ClassVar
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEAS_DIM
 from acc_fusion.core.slots import PairState, pair_mask
@@ -171,24 +172,34 @@ def _associate(
     """:meth:`TrackAssociator.step` of every ego, in place on the objects' ``valid``,
     ``object_id`` and ``pair`` (their two track ids); writes ``track``, ``lateral`` and
     ``lateral_cov``."""
+    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b = borrow(
+        (conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b)
+    )
+    valid, object_id, pair, next_id, track, lateral, lateral_cov = borrow(
+        (valid, object_id, pair, next_id, track, lateral, lateral_cov)
+    )
+    scratch = borrow(scratch)
     n_egos, n_a = conf_a.shape
     n_b = conf_b.shape[1]
-    d2, free_d2 = np.empty((n_a, n_b)), np.empty((n_a, n_b))
-    free_a, free_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
-    mate_a, mate_b = np.empty(n_a, np.int64), np.empty(n_b, np.int64)
-    out, vec = np.empty(n_a, np.int64), np.empty(2)
-    keep, pending = np.empty(valid.shape[1], np.bool_), np.empty((n_a + n_b, 2), np.int64)
-    s, si, work = np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
+    floats = (np.empty((n_a, n_b)), np.empty((n_a, n_b)), np.empty(2), np.empty((2, 2)),
+              np.empty((2, 2)), np.empty((2, 2)))  # fmt: skip
+    d2, free_d2, vec, s, si, work = borrow(floats)
+    ints = (np.empty(n_a, np.int64), np.empty(n_b, np.int64), np.empty(n_a, np.int64),
+            np.empty(n_b, np.int64), np.empty(n_a, np.int64), np.empty(n_b, np.int64),
+            np.empty(n_a, np.int64), np.empty((n_a + n_b, 2), np.int64))  # fmt: skip
+    free_a, free_b, all_a, all_b, mate_a, mate_b, out, pending = borrow(ints)
+    keep_owner = np.empty(valid.shape[1], np.bool_)
+    keep = borrow(keep_owner)
     for e in range(n_egos):
         mate_a[:] = -1
         mate_b[:] = -1
-        for i in range(n_a):
-            for j in range(n_b):
-                d2[i, j] = np.inf
-                if conf_a[e, i] and conf_b[e, j]:
-                    d2[i, j] = _distance(
-                        x_a[e, i], p_a[e, i], x_b[e, j], p_b[e, j], gate, s, si, work
-                    )
+        n_ca = _unpaired(conf_a[e], mate_a, all_a)
+        n_cb = _unpaired(conf_b[e], mate_b, all_b)
+        for r in range(n_ca):  # only pairs of confirmed tracks are read below
+            i = all_a[r]
+            for c in range(n_cb):
+                j = all_b[c]
+                d2[i, j] = _distance(x_a, p_a, x_b, p_b, e, i, j, gate, s, si, work)
         for f in range(valid.shape[1]):  # sticky: the last frame's pairs that still gate
             if valid[e, f] and pair[e, f, 0] >= 0 and pair[e, f, 1] >= 0:
                 i = _find(conf_a[e], id_a[e], pair[e, f, 0])
@@ -210,18 +221,20 @@ def _associate(
             if valid[e, f]:
                 _fuse_lateral(track[e, f], x_a[e], p_a[e], x_b[e], p_b[e], lateral[e, f],
                               lateral_cov[e, f], vec, s, si, work)  # fmt: skip
+    keep_alive((floats, ints, keep_owner))
 
 
 @njit(cache=True, inline="always")
-def _distance(xa, pa, xb, pb, gate, s, si, work):  # pragma: no cover - compiled
-    """Squared Mahalanobis distance of two tracks' positions with covariance ``P_a + P_b``
-    (``inf`` when the x-difference alone puts it outside the gate)."""
-    dx, dy = xa[0] - xb[0], xa[2] - xb[2]
-    if dx * dx >= gate * (pa[0, 0] + pb[0, 0]):
+def _distance(x_a, p_a, x_b, p_b, e, i, j, gate, s, si, work):  # pragma: no cover - compiled
+    """Squared Mahalanobis distance of ego ``e``'s tracks ``i`` of ``a`` and ``j`` of ``b``
+    by their positions, with covariance ``P_a + P_b`` (``inf`` when the x-difference alone
+    puts it outside the gate; indices rather than views: no reference counting per pair)."""
+    dx, dy = x_a[e, i, 0] - x_b[e, j, 0], x_a[e, i, 2] - x_b[e, j, 2]
+    if dx * dx >= gate * (p_a[e, i, 0, 0] + p_b[e, j, 0, 0]):
         return np.inf
     for r in range(2):
         for c in range(2):
-            s[r, c] = pa[2 * r, 2 * c] + pb[2 * r, 2 * c]
+            s[r, c] = p_a[e, i, 2 * r, 2 * c] + p_b[e, j, 2 * r, 2 * c]
     _inverse(s, si, work, 2)
     return dx * (si[0, 0] * dx + si[0, 1] * dy) + dy * (si[1, 0] * dx + si[1, 1] * dy)
 

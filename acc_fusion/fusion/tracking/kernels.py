@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse, predict_one
 from acc_fusion.fusion.tracking.assignment import gnn
@@ -42,12 +43,13 @@ def cv_model(dt, q):  # pragma: no cover - compiled
     return f, qm
 
 
-@njit(cache=True)
-def ego_transform(dt, speed0, speed1, yaw_rate, f):  # pragma: no cover - compiled
-    r"""The affine map :math:`x \mapsto A x + b` of a track's state over one step: the ego-motion
-    compensation :math:`x_c = T x + c` followed by the CV transition, :math:`A = F T`,
-    :math:`b = F c` (tracker module docstring); ``speed0``/``speed1``: the ego's speed at the
-    start/end of the step."""
+@njit(cache=True, inline="always")
+def ego_transform(dt, speed0, speed1, yaw_rate, f, a, b):  # pragma: no cover - compiled
+    r"""The affine map :math:`x \mapsto A x + b` of a track's state over one step, into ``a``
+    and ``b``: the ego-motion compensation :math:`x_c = T x + c` followed by the CV
+    transition, :math:`A = F T`, :math:`b = F c` (tracker module docstring);
+    ``speed0``/``speed1``: the ego's speed at the start/end of the step.  :math:`T` rotates
+    the positions and the velocities by :math:`-\varphi`; the products are written out."""
     phi = yaw_rate * dt
     cs, sn = np.cos(phi), np.sin(phi)
     if abs(phi) < 1e-6:  # the arc's chord, to second order
@@ -56,18 +58,17 @@ def ego_transform(dt, speed0, speed1, yaw_rate, f):  # pragma: no cover - compil
         along, side = sn / phi, (1.0 - cs) / phi
     step = 0.5 * (speed0 + speed1) * dt
     dx, dy = step * along, step * side
-    t = np.zeros((DIM, DIM))
-    for a in range(2):  # R(-phi) on the positions and on the velocities
-        t[a, a] = cs
-        t[a, a + 2] = sn
-        t[a + 2, a] = -sn
-        t[a + 2, a + 2] = cs
-    c = np.empty(DIM)
-    c[0] = -(cs * dx + sn * dy) + speed1 * dt
-    c[1] = cs * speed0 - speed1
-    c[2] = -(-sn * dx + cs * dy)
-    c[3] = -sn * speed0
-    return f @ t, f @ c
+    c0 = -(cs * dx + sn * dy) + speed1 * dt
+    c1 = cs * speed0 - speed1
+    c2 = -(-sn * dx + cs * dy)
+    c3 = -sn * speed0
+    for i in range(DIM):
+        # columns of F T: T's column j has cs at row j and -sn / +sn at row j ± 2
+        a[i, 0] = f[i, 0] * cs - f[i, 2] * sn
+        a[i, 1] = f[i, 1] * cs - f[i, 3] * sn
+        a[i, 2] = f[i, 0] * sn + f[i, 2] * cs
+        a[i, 3] = f[i, 1] * sn + f[i, 3] * cs
+        b[i] = f[i, 0] * c0 + f[i, 1] * c1 + f[i, 2] * c2 + f[i, 3] * c3
 
 
 @njit(cache=True, inline="always")
@@ -128,18 +129,30 @@ def track_step(
     next unused track id; ``scratch``: :meth:`~acc_fusion.fusion.tracking.assignment.Scratch.arrays`
     for ``T`` rows and the most detections of an ego."""
     q, gate, m_conf, n_conf, max_misses, max_coast, vel_var = params
+    x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast = (
+        borrow((x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id,
+                age, coast))
+    )  # fmt: skip
+    rows, rng, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate = (
+        borrow((rows, rng, azimuth, range_rate, range_rate_std, det_object, speed0, speed1,
+                yaw_rate))
+    )  # fmt: skip
+    scratch, next_id = borrow(scratch), borrow(next_id)
     n_egos, n_slots = valid.shape
-    f, qm = cv_model(dt, q)
-    xt, ap = np.empty(DIM), np.empty((DIM, DIM))
-    y, s_mat, si, work = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
-    ph, kg = np.empty((DIM, 2)), np.empty((DIM, 2))
     k_max = scratch[0].shape[1] - n_slots
-    d2 = np.empty((n_slots, k_max))
-    slots, out = np.empty(n_slots, np.int64), np.empty(n_slots, np.int64)
-    used = np.empty(k_max, np.bool_)
-    zx, zy, rxx, rxy, ryy = converted(rng, azimuth, range_std, azimuth_std)
+    owners = (
+        *cv_model(dt, q), np.empty(DIM), np.empty((DIM, DIM)), np.empty(2), np.empty((2, 2)),
+        np.empty((2, 2)), np.empty((2, 2)), np.empty((DIM, 2)), np.empty((DIM, 2)),
+        np.empty((n_slots, k_max)), *converted(rng, azimuth, range_std, azimuth_std),
+        np.empty((DIM, DIM)), np.empty(DIM),
+    )  # fmt: skip
+    f, qm, xt, ap, y, s_mat, si, work, ph, kg, d2, zx, zy, rxx, rxy, ryy, a, b = borrow(owners)
+    int_owners = (np.empty(n_slots, np.int64), np.empty(n_slots, np.int64))
+    slots, out = borrow(int_owners)
+    used_owner = np.empty(k_max, np.bool_)
+    used = borrow(used_owner)
     for e in range(n_egos):
-        a, b = ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], f)
+        ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], f, a, b)
         n_t = 0
         for t in range(n_slots):
             detection[e, t] = -1
@@ -198,6 +211,7 @@ def track_step(
             detection[e, t], object_id[e, t] = k, det_object[k]
             hits[e, t], misses[e, t], scans[e, t] = 1, 0, 1
             age[e, t], coast[e, t] = 0.0, 0.0
+    keep_alive((owners, int_owners, used_owner))
 
 
 @njit(cache=True, inline="always")

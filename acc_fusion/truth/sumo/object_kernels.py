@@ -9,6 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.borrow import borrow
 from acc_fusion.truth.objects import OFF_ROAD, ObjectKind
 
 _OFFSET = 1 << 20  # grid cells from the origin a key can hold on either side
@@ -44,6 +45,9 @@ def _search(
     column.  Writes each ego's count into ``counts`` and its hits (object index, near face
     ``x``, ``y``) ego after ego into ``hit_*`` as far as they hold; returns the number of hits.
     """
+    ego, ox, oy, cos_h, sin_h, olen, keys, order, counts, hit_j, hit_x, hit_y = borrow(
+        (ego, ox, oy, cos_h, sin_h, olen, keys, order, counts, hit_j, hit_x, hit_y)
+    )
     margin = 0.5 * olen.max() if olen.shape[0] else 0.0
     room, total = hit_j.shape[0], 0
     for e in range(ego.shape[0]):
@@ -89,6 +93,13 @@ def _fill(
 ):  # pragma: no cover - compiled  # fmt: skip
     """Write the hits of :func:`_search` into the outputs (:func:`_outputs`), and ``lead``:
     the slot of the vehicle whose id is ``lead_id``."""
+    ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width = borrow(
+        (ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width)
+    )
+    cos_h, sin_h, okind, oid, oedge, olane, props, out = borrow(
+        (cos_h, sin_h, okind, oid, oedge, olane, props, out)
+    )
+    out_id, out_kind, out_lane, lead = borrow((out_id, out_kind, out_lane, lead))
     h = 0
     for e in range(ego.shape[0]):
         i = ego[e]
