@@ -149,15 +149,15 @@ def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
     xt, fp = borrow(owners)
     for k in range(x.shape[0]):
         if mask[k]:
-            predict_one(x[k], p[k], f, q, q_scale[k], b, u[k % u.size], xt, fp)
+            predict_one(x[k], p[k], f, q, q_scale[k], b, u[k % u.size], xt, fp, STATE_DIM)
     keep_alive(owners)
 
 
 @njit(cache=True, inline="always")
-def predict_one(x, p, f, q, scale, b, u, xt, fp):  # pragma: no cover - compiled
+def predict_one(x, p, f, q, scale, b, u, xt, fp, n):  # pragma: no cover - compiled
     """:func:`predict` of one filter ``x (n,)``, ``p (n, n)`` with process-noise scale
-    ``scale`` and input ``u`` (``xt (n,)``, ``fp (n, n)``: scratch); any state size ``n``."""
-    n = x.shape[0]
+    ``scale`` and input ``u`` (``xt (n,)``, ``fp (n, n)``: scratch); the state size ``n`` a
+    constant of the caller's, so that the loops over it unroll where this is inlined."""
     for i in range(n):
         s = 0.0
         for j in range(n):

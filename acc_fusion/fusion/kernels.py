@@ -173,10 +173,10 @@ def _federated_step(
     for k in range(n_pairs):
         uk = u[k % u.size]
         if initialised[k]:
-            predict_one(xm[k], pm[k], f, q, 1.0, b, uk, xt, fp)
+            predict_one(xm[k], pm[k], f, q, 1.0, b, uk, xt, fp, n)
             for s in range(n_s):
                 scale = _inflation_one(beta[s, k], inflate)
-                predict_one(xl[s, k], pl[s, k], f, q, scale, b, uk, xt, fp)
+                predict_one(xl[s, k], pl[s, k], f, q, scale, b, uk, xt, fp, n)
         else:  # a new track from the first reporting sensor
             first = -1
             for s in range(n_s):  # the first reporting sensor that is not frozen

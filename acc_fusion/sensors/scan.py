@@ -82,7 +82,13 @@ class Returns:
 
     def take(self, index: np.ndarray) -> Returns:
         """The returns at ``index`` (a boolean mask or indices)."""
-        return Returns(self.ego[index], self.z[:, index], self.object_id[index], self.origin[index])
+        index = np.asarray(index)
+        if index.dtype == bool:  # one pass over the mask, then cheap takes
+            if index.shape != self.ego.shape:
+                raise IndexError(f"a mask of {index.shape} for {self.ego.size} returns")
+            index = np.flatnonzero(index)
+        return Returns(self.ego.take(index), self.z.take(index, axis=1),
+                       self.object_id.take(index), self.origin.take(index))  # fmt: skip
 
 
 def stationary_clutter(
@@ -229,10 +235,11 @@ class Scanner:
     def _objects(frame: ObjectFrame) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
         """The ego of every valid object slot, flat ``(K,)``, and the function that picks
         those slots from an ``(E, M)`` array of the frame."""
-        ego, slot = np.nonzero(frame.valid)
+        flat = np.flatnonzero(frame.valid)  # row-major, as np.nonzero's (ego, slot) pairs
+        ego = flat // max(frame.valid.shape[1], 1)
 
         def at(a: np.ndarray) -> np.ndarray:
-            return a[ego, slot]
+            return np.take(a, flat)
 
         return ego, at
 

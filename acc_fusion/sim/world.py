@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
@@ -52,7 +53,7 @@ from acc_fusion.sim.closed_loop import (
     simulate,
 )
 from acc_fusion.sim.world_config import WorldConfig
-from acc_fusion.truth.objects import ObjectFrame, ObjectKind
+from acc_fusion.truth.objects import STATIONARY_KINDS, ObjectFrame, ObjectKind
 from acc_fusion.truth.scenes import SceneConfig, SceneSource
 from acc_fusion.warning.logic import WarningLogic
 from acc_fusion.warning.selection import InPathSelector
@@ -87,20 +88,45 @@ def alert_cause(
     if not frame.max_objects:  # no object ahead of any ego: whatever is selected is a ghost
         return np.full(n, CAUSES.index("ghost"), dtype=np.int64)
     lead_id = frame.lead_frame().leader_id if lead_id is None else lead_id
-    match = frame.valid & (frame.object_id == truth_id[:, None]) & (truth_id[:, None] >= 0)
-    found = match.any(axis=1)
-    k = np.argmax(match, axis=1)
-    rows = np.arange(n)
-    kind = frame.kind[rows, k]
-    stationary = frame.stationary[rows, k]
-    changing = (kind == ObjectKind.VEHICLE) & (
-        np.abs(frame.lateral_speed[rows, k]) > LANE_CHANGE_SPEED
-    )
-    lead = found & (truth_id == lead_id) & ~changing
-    cause = np.where(stationary, CAUSES.index("stationary"), CAUSES.index("adjacent"))
-    cause = np.where(changing, CAUSES.index("cut_in_out"), cause)
-    cause = np.where(found, cause, CAUSES.index("ghost"))
-    return np.where(lead, CAUSES.index("lead"), cause).astype(np.int64)
+    out = np.empty(n, dtype=np.int64)
+    _cause(frame.valid, frame.object_id, frame.kind, frame.lateral_speed,
+           np.asarray(truth_id, dtype=np.int64), np.asarray(lead_id, dtype=np.int64),
+           out)  # fmt: skip
+    return out
+
+
+#: :data:`CAUSES` indices and kinds as the compiled :func:`_cause` takes them.
+_LEAD, _STATIONARY, _ADJACENT, _CUT, _GHOST = (
+    CAUSES.index(c) for c in ("lead", "stationary", "adjacent", "cut_in_out", "ghost")
+)
+_STILL_KINDS = tuple(int(k) for k in STATIONARY_KINDS)
+_VEHICLE = int(ObjectKind.VEHICLE)
+
+
+@njit(cache=True)
+def _cause(valid, object_id, kind, lateral_speed, truth_id, lead_id, out):  # pragma: no cover
+    """:func:`alert_cause` of every ego into ``out``: the first valid slot holding the
+    object ``truth_id`` decides."""
+    for e in range(valid.shape[0]):
+        wanted, k = truth_id[e], -1
+        if wanted >= 0:
+            for j in range(valid.shape[1]):
+                if valid[e, j] and object_id[e, j] == wanted:
+                    k = j
+                    break
+        if k < 0:
+            out[e] = _GHOST
+            continue
+        still = False
+        for s in _STILL_KINDS:
+            still = still or kind[e, k] == s
+        changing = kind[e, k] == _VEHICLE and abs(lateral_speed[e, k]) > LANE_CHANGE_SPEED
+        if wanted == lead_id[e] and not changing:
+            out[e] = _LEAD
+        elif changing:
+            out[e] = _CUT
+        else:
+            out[e] = _STATIONARY if still else _ADJACENT
 
 
 @dataclass
@@ -246,19 +272,17 @@ class WorldPerception(PairState):
         selected) and its true id (``est`` over the pool's pairs)."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
-        pair_k = np.maximum(pair, 0)
-        ok = (pair >= 0) & est.valid[pair_k] & fused.valid
-        ids = np.where(ok, fused.object_id, -1)
-        camera = fused.track[..., 1] >= 0
-        confirmed = camera if method in _CLASSIFYING else np.zeros_like(camera)
-        ground = v_ego[:, None] + est.x[pair_k, 1]
+        ids, x, ground = np.empty((n, f), np.int64), np.empty((n, f)), np.empty((n, f))
+        confirmed = np.empty((n, f), dtype=bool)
+        _slot_view(pair, est.x, est.valid, fused.valid, fused.object_id, fused.track, v_ego,
+                   method in _CLASSIFYING, ids, x, ground, confirmed)  # fmt: skip
         sel = self.selectors[method].step(
-            ids, est.x[pair_k, 0], fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
+            ids, x, fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
         )
         has = (sel >= 0) & active
         rows = np.arange(n)
         k = np.where(has, sel, 0)
-        flat = pair_k[rows, k]
+        flat = np.maximum(pair[rows, k], 0)
         selected = Estimate(est.t, est.x[flat], est.p[flat], has, est.nis[flat], est.isolated[flat])
         radar_track, camera_track = fused.track[rows, k, 0], fused.track[rows, k, 1]
         truth = np.where(
@@ -267,6 +291,29 @@ class WorldPerception(PairState):
             tracks[1].object_id[rows, np.maximum(camera_track, 0)],
         )
         return selected, np.where(has, truth, -1)
+
+
+@njit(cache=True)
+def _slot_view(
+    pair, x_est, valid_est, fused_valid, fused_id, track, v_ego, classifying, ids, x, ground,
+    confirmed,
+):  # pragma: no cover - compiled  # fmt: skip
+    """What the in-path selector sees of each object slot ``(E, F)`` under one method, from the
+    slots' estimator pairs ``pair`` (-1: none) and that method's estimates over the pairs:
+    ``ids`` the fused object's id where its pair's estimate is valid (-1 elsewhere), ``x`` its
+    range, ``ground`` its ground speed (the ego's speed plus its range-rate), ``confirmed``
+    whether the thermal camera's track is in it (only for a ``classifying`` method).  A slot
+    without a pair reads pair 0, masked by its id."""
+    n, f = fused_valid.shape
+    for e in range(n):
+        for k in range(f):
+            p = pair[e, k]
+            q = max(p, 0)
+            ok = p >= 0 and valid_est[q] and fused_valid[e, k]
+            ids[e, k] = fused_id[e, k] if ok else -1
+            x[e, k] = x_est[q, 0]
+            ground[e, k] = v_ego[e] + x_est[q, 1]
+            confirmed[e, k] = classifying and track[e, k, 1] >= 0
 
 
 def simulate_world(

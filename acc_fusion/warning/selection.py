@@ -56,6 +56,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.slots import PairState
@@ -65,6 +66,8 @@ from acc_fusion.core.validation import check_choice, check_range
 PATHS = ("straight", "yaw_rate", "lane")
 #: Policies for stationary objects.
 STATIONARY_POLICIES = ("all", "confirmed", "ignore")
+#: The stationary policies as the compiled selection takes them.
+_CONFIRMED, _IGNORE = STATIONARY_POLICIES.index("confirmed"), STATIONARY_POLICIES.index("ignore")
 #: Widest half corridor the selection accepts [m].
 MAX_HALF_WIDTH = 20.0
 
@@ -163,27 +166,51 @@ class InPathSelector(PairState):
         object_id = np.asarray(object_id)
         if object_id.shape != self._ids.shape:
             raise InputError(f"object_id must have shape {self._ids.shape}, got {object_id.shape}")
-        used = object_id >= 0
-        new = object_id != self._ids
-        self._moved[new] = False
-        self._ids = object_id.copy()
-        stationary = np.abs(ground_speed) < cfg.stationary_speed
-        self._moved |= used & ~stationary
-        kappa = path_curvature(cfg, speed, yaw_rate, road_curvature)
-        offset = y - 0.5 * kappa[:, None] * x * x
-        in_path = used & (x > 0.0) & (np.abs(offset) <= cfg.half_width)
-        if not cfg.oncoming:
-            in_path &= ground_speed > -cfg.stationary_speed
-        if cfg.stationary == "ignore":
-            in_path &= ~stationary
-        elif cfg.stationary == "confirmed":
-            in_path &= ~stationary | confirmed | self._moved
-        self.curvature, self.offset, self.in_path = kappa, offset, in_path
-        distance = np.where(in_path, x, np.inf)
-        if not distance.shape[1]:
-            self.selected = np.full(distance.shape[0], -1, dtype=np.int64)
-            return self.selected
-        best = np.argmin(distance, axis=1)
-        rows = np.arange(distance.shape[0])
-        self.selected = np.where(np.isfinite(distance[rows, best]), best, -1).astype(np.int64)
+        n, f = object_id.shape
+        self.curvature = path_curvature(cfg, speed, yaw_rate, road_curvature)
+        self.offset, self.in_path = np.empty((n, f)), np.empty((n, f), dtype=bool)
+        self.selected = np.empty(n, dtype=np.int64)
+        _select(
+            object_id.astype(np.int64, copy=False), np.asarray(x, dtype=float),
+            np.asarray(y, dtype=float), np.asarray(ground_speed, dtype=float),
+            np.asarray(confirmed, dtype=bool), self.curvature, cfg.half_width,
+            cfg.stationary_speed, cfg.oncoming, STATIONARY_POLICIES.index(cfg.stationary),
+            self._ids, self._moved, self.offset, self.in_path, self.selected,
+        )  # fmt: skip
         return self.selected
+
+
+@njit(cache=True)
+def _select(
+    object_id, x, y, ground, confirmed, kappa, half_width, still, oncoming, policy, ids, moved,
+    offset, in_path, selected,
+):  # pragma: no cover - compiled  # fmt: skip
+    r""":meth:`InPathSelector.step` of every ego, one pass over its slots: the memory ``ids``,
+    ``moved`` in place; ``offset`` :math:`= y - \kappa x^2/2`, ``in_path`` and ``selected``
+    (the nearest in-path slot, the first of equals; -1 for none) written.  ``policy``: the
+    index of the stationary policy in :data:`STATIONARY_POLICIES`."""
+    n, f = object_id.shape
+    for e in range(n):
+        best, nearest = -1, np.inf
+        for k in range(f):
+            oid = object_id[e, k]
+            used = oid >= 0
+            if oid != ids[e, k]:  # a new object in the slot: not yet seen moving
+                moved[e, k] = False
+            ids[e, k] = oid
+            stationary = abs(ground[e, k]) < still
+            moved[e, k] = moved[e, k] or (used and not stationary)
+            xk = x[e, k]
+            off = y[e, k] - 0.5 * kappa[e] * xk * xk
+            offset[e, k] = off
+            ok = used and xk > 0.0 and abs(off) <= half_width
+            if not oncoming:
+                ok = ok and ground[e, k] > -still
+            if policy == _IGNORE:
+                ok = ok and not stationary
+            elif policy == _CONFIRMED:
+                ok = ok and (not stationary or confirmed[e, k] or moved[e, k])
+            in_path[e, k] = ok
+            if ok and xk < nearest:
+                best, nearest = k, xk
+        selected[e] = best

@@ -157,7 +157,7 @@ def track_step(
         for t in range(n_slots):
             detection[e, t] = -1
             if valid[e, t]:
-                predict_one(x[e, t], p[e, t], a, qm, 1.0, b, 1.0, xt, ap)
+                predict_one(x[e, t], p[e, t], a, qm, 1.0, b, 1.0, xt, ap, DIM)
                 age[e, t] += dt
                 coast[e, t] += dt
                 slots[n_t] = t
