@@ -23,6 +23,7 @@ from acc_fusion.core.validation import check_array
 from acc_fusion.filters.engines import Engine
 from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.kernels import (
+    _first_reports,
     _gather,
     _lose,
     _noise_at_prediction,
@@ -244,20 +245,15 @@ class Estimator(PairState, ABC):
         """Initial states from the first reporting sensor of each uninitialised pair.
 
         Returns ``(init (N,), x0 (N, 3), p0 (N, 3, 3), consumed (S, N))``; ``x0`` and ``p0``
-        are ``None`` when no pair starts a track at this step.
+        (meaningful in the rows of ``init`` only) are ``None`` when no pair starts a track at
+        this step.
         """
-        init = ~self.initialised & valid.any(axis=0)
-        if not init.any():
-            return init, None, None, np.zeros_like(valid)
-        first = np.argmax(valid, axis=0)
-        cols = np.arange(self.n_pairs)
-        zf, rf = z[first, cols], r[first, cols]
-        x0 = np.zeros((self.n_pairs, STATE_DIM))
-        x0[:, :2] = zf
-        p0 = np.zeros((self.n_pairs, STATE_DIM, STATE_DIM))
-        p0[:, :2, :2] = rf
-        p0[:, 2, 2] = self.config.filter.init_accel_std**2
-        consumed = (np.arange(self.n_sensors)[:, None] == first[None, :]) & init[None, :]
+        n = self.n_pairs
+        init, consumed = np.empty(n, dtype=bool), np.zeros_like(valid)
+        x0, p0 = np.zeros((n, STATE_DIM)), np.zeros((n, STATE_DIM, STATE_DIM))
+        var = self.config.filter.init_accel_std**2
+        if not _first_reports(self.initialised, z, r, valid, var, init, x0, p0, consumed):
+            return init, None, None, consumed
         return init, x0, p0, consumed
 
     @staticmethod

@@ -49,6 +49,34 @@ def _gather(z_in, r_in, valid_in, z, r, valid):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _first_reports(initialised, z, r, valid, accel_var, init, x0, p0, consumed):  # pragma: no cover
+    """:meth:`~acc_fusion.fusion.base.Estimator._initial` of every pair, in place: ``init (N,)``
+    the uninitialised pairs with a report, ``x0 (N, n)``, ``p0 (N, n, n)`` their first
+    reporting sensor's measurement and covariance, the acceleration's variance ``accel_var``
+    (rows not starting are left as they are), ``consumed (S, N)`` that sensor's report.
+    Returns whether any pair starts."""
+    any_init = False
+    for k in range(valid.shape[1]):
+        first = -1
+        if not initialised[k]:
+            for s in range(valid.shape[0]):
+                if valid[s, k]:
+                    first = s
+                    break
+        init[k] = first >= 0
+        if first < 0:
+            continue
+        any_init = True
+        consumed[first, k] = True
+        for i in range(MEAS_DIM):
+            x0[k, i] = z[first, k, i]
+            for j in range(MEAS_DIM):
+                p0[k, i, j] = r[first, k, i, j]
+        p0[k, STATE_DIM - 1, STATE_DIM - 1] = accel_var
+    return any_init
+
+
+@njit(cache=True)
 def _lose(initialised, target, target_id, last, t, coast_limit, lost):  # pragma: no cover
     """The tracks lost at time ``t``: ``lost (N,)`` receives the initialised pairs whose target
     id changed (``target`` takes ``target_id``, in place) or whose last measurement, at

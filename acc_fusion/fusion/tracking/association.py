@@ -228,7 +228,7 @@ def _associate(
 def _distance(x_a, p_a, x_b, p_b, e, i, j, gate, s, si, work):  # pragma: no cover - compiled
     """Squared Mahalanobis distance of ego ``e``'s tracks ``i`` of ``a`` and ``j`` of ``b``
     by their positions, with covariance ``P_a + P_b`` (``inf`` when the x-difference alone
-    puts it outside the gate; indices rather than views: no reference counting per pair)."""
+    puts it outside the gate)."""
     dx, dy = x_a[e, i, 0] - x_b[e, j, 0], x_a[e, i, 2] - x_b[e, j, 2]
     if dx * dx >= gate * (p_a[e, i, 0, 0] + p_b[e, j, 0, 0]):
         return np.inf
