@@ -41,24 +41,40 @@ class PairState:
     _PAIR_AXES: ClassVar[dict[str, int]] = {}
 
     def resize(self, m: int) -> None:
-        """Hold the first ``m`` pairs (``1 <= m <=`` the pairs the stage was built for)."""
+        """Hold the first ``m`` pairs (``1 <= m <=`` the pairs the stage was built for).
+
+        A resized held array is a new C-contiguous array (the kernels' layout); a parked tail
+        may be a view of an older one, so that growing copies only the pairs that come back."""
         parked = self.__dict__.setdefault("_parked", {})
         for name, axis in self._PAIR_AXES.items():
             held = getattr(self, name)
             if held is None:
                 continue
-            full = np.concatenate((held, parked[name]), axis) if name in parked else held
-            if not 1 <= m <= full.shape[axis]:
-                raise ConfigError(
-                    f"{type(self).__name__} can hold 1 to {full.shape[axis]} pairs, got {m}"
+            now, rest = held.shape[axis], parked.get(name)
+            total = now + (0 if rest is None else rest.shape[axis])
+            if not 1 <= m <= total:
+                raise ConfigError(f"{type(self).__name__} can hold 1 to {total} pairs, got {m}")
+            if m >= now:
+                head = (
+                    np.concatenate((held, _span(rest, 0, m - now, axis)), axis) if m > now else held
                 )
-            head, tail = np.split(full, [m], axis=axis)
-            setattr(self, name, np.array(head, order="C"))
-            parked[name] = np.array(tail, order="C")
+                tail = rest if m == now else _span(rest, m - now, None, axis)
+            else:
+                head = np.array(_span(held, 0, m, axis), order="C")
+                kept = _span(held, m, None, axis)
+                tail = kept if rest is None else np.concatenate((kept, rest), axis)
+            setattr(self, name, head)
+            if tail is not None:
+                parked[name] = tail
         self._resized(m)
 
     def _resized(self, m: int) -> None:
         """Set the pair count to ``m`` and resize the stage's parts (subclasses extend it)."""
+
+
+def _span(a: np.ndarray, start: int, stop: int | None, axis: int) -> np.ndarray:
+    """The view of ``a`` from ``start`` to ``stop`` along ``axis``."""
+    return a[(slice(None),) * axis + (slice(start, stop),)]
 
 
 def pair_mask(pairs, n: int) -> np.ndarray:

@@ -350,31 +350,57 @@ def fused_measurements(
     e, f = fused.valid.shape
     if slots is None:
         slots = np.arange(e * f)
+    slots = np.asarray(slots, dtype=np.int64)
     n = slots.size
-    has_slot = slots >= 0
-    flat = np.maximum(slots, 0)
-    ego = flat // f
-    target = np.where(has_slot & fused.valid.reshape(-1)[flat], fused.object_id.reshape(-1)[flat],
-                      -1)  # fmt: skip
+    target = np.empty(n, np.int64)
+    _targets(slots, fused.valid, fused.object_id, target)
     out = []
     for s, (trk, det) in enumerate(zip(tracks, detections, strict=True)):
         if trk.sensor != fused.sensors[s] or det.sensor != fused.sensors[s]:
             raise InputError(f"tracks and detections must be given in the order {fused.sensors}")
-        slot = np.where(has_slot, fused.track[..., s].reshape(-1)[flat], -1)
-        k = np.full(n, -1, np.int64)
-        has = slot >= 0
-        k[has] = trk.detection[ego[has], slot[has]]
-        valid = k >= 0
-        kv = k[valid]
-        x, _, rxx, _, _ = converted(det.range[kv], det.azimuth[kv], det.range_std[kv],
-                                    det.azimuth_std[kv])  # fmt: skip
-        z = np.full((MEAS_DIM, n), np.nan)
-        z[0, valid], z[1, valid] = x, det.range_rate[kv]
-        r = np.zeros((MEAS_DIM, MEAS_DIM, n))
-        r[0, 0], r[1, 1] = 1.0, 1.0
-        r[0, 0, valid], r[1, 1, valid] = rxx, det.range_rate_std[kv] ** 2
-        ghost = np.zeros(n, bool)
-        ghost[valid] = np.isin(det.origin[kv], (GHOST, CLUTTER))
+        z, r = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, MEAS_DIM, n))
+        valid, ghost = np.empty(n, bool), np.empty(n, bool)
+        _measure(slots, fused.track[..., s], trk.detection, det.range, det.azimuth,
+                 det.range_std, det.azimuth_std, det.range_rate, det.range_rate_std,
+                 det.origin, z, r, valid, ghost)  # fmt: skip
         out.append(Measurement(det.t, det.sensor, z.T, r.transpose(2, 0, 1), valid, ghost,
                                bool(det.online)))  # fmt: skip
     return out, target
+
+
+@njit(cache=True)
+def _targets(slots, fused_valid, fused_id, target):  # pragma: no cover - compiled
+    """Each pair's fused object id, from its flat slot ``e·F + f`` (-1: no slot or no
+    object)."""
+    f = fused_valid.shape[1]
+    for i in range(slots.size):
+        q = slots[i]
+        ok = q >= 0 and fused_valid[q // f, q % f]
+        target[i] = fused_id[q // f, q % f] if ok else -1
+
+
+@njit(cache=True)
+def _measure(
+    slots, track, detection, rng, azimuth, range_std, azimuth_std, range_rate, range_rate_std,
+    origin, z, r, valid, ghost,
+):  # pragma: no cover - compiled  # fmt: skip
+    """One sensor's measurement of each pair (its flat slot in ``slots``): the detection its
+    track in the slot (``track (E, F)``) took at this frame, as the converted ``x`` and the
+    range-rate, ``z (2, N)``, their variances in ``r (2, 2, N)`` (identity and NaN where it
+    has none), ``valid`` and ``ghost`` (a ghost or clutter detection)."""
+    f = track.shape[1]
+    for i in range(slots.size):
+        q, k = slots[i], -1
+        if q >= 0:
+            t = track[q // f, q % f]
+            if t >= 0:
+                k = detection[q // f, t]
+        valid[i] = k >= 0
+        r[0, 1, i], r[1, 0, i] = 0.0, 0.0
+        if k < 0:
+            z[0, i], z[1, i], r[0, 0, i], r[1, 1, i], ghost[i] = np.nan, np.nan, 1.0, 1.0, False
+            continue
+        x, _, rxx, _, _ = converted(rng[k], azimuth[k], range_std[k], azimuth_std[k])
+        z[0, i], z[1, i] = x, range_rate[k]
+        r[0, 0, i], r[1, 1, i] = rxx, range_rate_std[k] ** 2
+        ghost[i] = origin[k] == GHOST or origin[k] == CLUTTER
