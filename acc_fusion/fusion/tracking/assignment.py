@@ -101,30 +101,39 @@ def assign(
     return True
 
 
+@njit(cache=True)
+def scratch_arrays(rows, cols):  # pragma: no cover - compiled
+    """Work arrays of :func:`gnn` for problems of up to ``rows`` rows and ``cols`` columns,
+    as it takes them (a kernel that solves problems on several threads makes one set each)."""
+    width = cols + rows
+    return (
+        np.empty((rows, width)), np.empty(rows, np.int64), np.empty(width, np.int64),
+        np.empty(rows), np.empty(width), np.empty(width), np.empty(width, np.int64),
+        np.empty(width, np.int64), np.empty(rows, np.bool_), np.empty(width, np.bool_),
+        np.empty(rows + width, np.int64), np.empty(rows, np.int64), np.empty(rows, np.int64),
+        np.empty(rows, np.int64), np.empty(width, np.int64), np.empty(rows, np.int64),
+        np.empty(width, np.int64),
+    )  # fmt: skip
+
+
 class Scratch:
-    """Work arrays of :func:`gnn` for problems of up to ``rows`` rows and ``cols`` columns."""
+    """Work arrays of :func:`gnn` for problems of up to ``rows`` rows and ``cols`` columns
+    (:func:`scratch_arrays`): the cost matrix, the solver's (``col4row``, ``row4col``, the
+    duals ``u``, ``v``, ``shortest``, ``path``, ``remaining``, ``sr``, ``sc``) and the gate's
+    parts (a union-find ``root``, per-part lists ``head_r``, ``head_c``, ``next_r``,
+    ``next_c``, and a part's rows and columns ``part_r``, ``part_c``)."""
+
+    _NAMES = ("cost", "col4row", "row4col", "u", "v", "shortest", "path", "remaining", "sr",
+              "sc", "root", "head_r", "head_c", "next_r", "next_c", "part_r", "part_c")  # fmt: skip
 
     def __init__(self, rows: int, cols: int) -> None:
-        width = cols + rows
-        self.cost = np.empty((rows, width))
-        self.col4row = np.empty(rows, dtype=np.int64)
-        self.row4col = np.empty(width, dtype=np.int64)
-        self.u = np.empty(rows)
-        self.v, self.shortest = np.empty(width), np.empty(width)
-        self.path, self.remaining = np.empty(width, np.int64), np.empty(width, np.int64)
-        self.sr, self.sc = np.empty(rows, np.bool_), np.empty(width, np.bool_)
-        self.root = np.empty(rows + width, np.int64)  # the gate's parts (union-find)
-        self.head_r, self.head_c = np.empty(rows, np.int64), np.empty(rows, np.int64)
-        self.next_r, self.next_c = np.empty(rows, np.int64), np.empty(width, np.int64)
-        self.part_r, self.part_c = np.empty(rows, np.int64), np.empty(width, np.int64)
+        self._arrays = scratch_arrays(int(rows), int(cols))
+        for name, array in zip(self._NAMES, self._arrays, strict=True):
+            setattr(self, name, array)
 
     def arrays(self) -> tuple:
         """The arrays as :func:`gnn` takes them."""
-        return (
-            self.cost, self.col4row, self.row4col, self.u, self.v, self.shortest, self.path,
-            self.remaining, self.sr, self.sc, self.root, self.head_r, self.head_c, self.next_r,
-            self.next_c, self.part_r, self.part_c,
-        )  # fmt: skip
+        return self._arrays
 
 
 @njit(cache=True)

@@ -50,8 +50,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.errors import ConfigError, InputError
@@ -59,9 +60,9 @@ from acc_fusion.core.motion import MEAS_DIM
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse
-from acc_fusion.fusion.tracking.assignment import Scratch, gnn
-from acc_fusion.fusion.tracking.kernels import converted
-from acc_fusion.fusion.tracking.tracker import GateConfig, Tracks
+from acc_fusion.fusion.tracking.assignment import gnn, scratch_arrays
+from acc_fusion.fusion.tracking.kernels import UNNUMBERED, converted, number_new
+from acc_fusion.fusion.tracking.tracker import PARALLEL_EGOS, GateConfig, Tracks
 from acc_fusion.sensors.detections import CLUTTER, GHOST, Detections
 from acc_fusion.sensors.sensor import Measurement
 
@@ -129,7 +130,6 @@ class TrackAssociator(PairState):
         self._object_id = np.full(shape, -1, np.int64)
         self._pair = np.full(shape + (2,), -1, np.int64)  # the objects' track ids
         self._next_id = getattr(self, "_next_id", np.zeros(1, np.int64))
-        self._scratch = Scratch(*self.max_tracks)
         self.__dict__.pop("_parked", None)
 
     def forget(self, egos: np.ndarray) -> None:
@@ -153,11 +153,15 @@ class TrackAssociator(PairState):
         track = np.full((self.n_egos, self.n_slots, 2), -1, np.int64)
         lateral = np.zeros((self.n_egos, self.n_slots, 2))
         lateral_cov = np.zeros((self.n_egos, self.n_slots, 2, 2))
-        _associate(
+        args = (
             a.confirmed, a.track_id, a.state, a.cov, b.confirmed, b.track_id, b.state, b.cov,
             self.config.gate_value, self._valid, self._object_id, self._pair, self._next_id,
-            track, lateral, lateral_cov, self._scratch.arrays(),
+            track, lateral, lateral_cov,
         )  # fmt: skip
+        if self.n_egos >= PARALLEL_EGOS and numba.get_num_threads() > 1:
+            _associate_parallel(*args, min(self.n_egos, 4 * numba.get_num_threads()))
+        else:
+            _associate(*args)
         return FusedObjects(
             a.t, (a.sensor, b.sensor), self._valid.copy(), self._object_id.copy(), track,
             lateral, lateral_cov,
@@ -167,18 +171,44 @@ class TrackAssociator(PairState):
 @njit(cache=True)
 def _associate(
     conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, next_id,
-    track, lateral, lateral_cov, scratch,
+    track, lateral, lateral_cov,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`TrackAssociator.step` of every ego, in place on the objects' ``valid``,
     ``object_id`` and ``pair`` (their two track ids); writes ``track``, ``lateral`` and
     ``lateral_cov``."""
+    _associate_egos(0, valid.shape[0], conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate,
+                    valid, object_id, pair, track, lateral, lateral_cov)  # fmt: skip
+    number_new(object_id, next_id)
+
+
+@njit(cache=True, parallel=True)
+def _associate_parallel(
+    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, next_id,
+    track, lateral, lateral_cov, chunks,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_associate` on the cores, the egos in ``chunks`` blocks (the egos are
+    independent; new objects are numbered after, as the serial kernel would)."""
+    n = valid.shape[0]
+    for c in prange(chunks):
+        _associate_egos(c * n // chunks, (c + 1) * n // chunks, conf_a, id_a, x_a, p_a, conf_b,
+                        id_b, x_b, p_b, gate, valid, object_id, pair, track, lateral,
+                        lateral_cov)  # fmt: skip
+    number_new(object_id, next_id)
+
+
+@njit(cache=True)
+def _associate_egos(
+    lo, hi, conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, track,
+    lateral, lateral_cov,
+):  # pragma: no cover - compiled  # fmt: skip
+    """The association of egos ``lo`` to ``hi``, with work arrays of its own; new objects are
+    left :data:`~acc_fusion.fusion.tracking.kernels.UNNUMBERED`."""
     conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b = borrow(
         (conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b)
     )
-    valid, object_id, pair, next_id, track, lateral, lateral_cov = borrow(
-        (valid, object_id, pair, next_id, track, lateral, lateral_cov)
+    valid, object_id, pair, track, lateral, lateral_cov = borrow(
+        (valid, object_id, pair, track, lateral, lateral_cov)
     )
-    scratch = borrow(scratch)
     n_egos, n_a = conf_a.shape
     n_b = conf_b.shape[1]
     floats = (np.empty((n_a, n_b)), np.empty((n_a, n_b)), np.empty(2), np.empty((2, 2)),
@@ -190,7 +220,9 @@ def _associate(
     free_a, free_b, all_a, all_b, mate_a, mate_b, out, pending = borrow(ints)
     keep_owner = np.empty(valid.shape[1], np.bool_)
     keep = borrow(keep_owner)
-    for e in range(n_egos):
+    scratch_owner = scratch_arrays(n_a, n_b)
+    scratch = borrow(scratch_owner)
+    for e in range(lo, hi):
         mate_a[:] = -1
         mate_b[:] = -1
         n_ca = _unpaired(conf_a[e], mate_a, all_a)
@@ -216,12 +248,12 @@ def _associate(
             if out[r] >= 0:
                 mate_a[free_a[r]], mate_b[free_b[out[r]]] = free_b[out[r]], free_a[r]
         _place(valid[e], object_id[e], pair[e], track[e], conf_a[e], id_a[e], mate_a,
-               conf_b[e], id_b[e], mate_b, next_id, keep, pending)  # fmt: skip
+               conf_b[e], id_b[e], mate_b, keep, pending)  # fmt: skip
         for f in range(valid.shape[1]):
             if valid[e, f]:
                 _fuse_lateral(track[e, f], x_a[e], p_a[e], x_b[e], p_b[e], lateral[e, f],
                               lateral_cov[e, f], vec, s, si, work)  # fmt: skip
-    keep_alive((floats, ints, keep_owner))
+    keep_alive((floats, ints, keep_owner, scratch_owner))
 
 
 @njit(cache=True, inline="always")
@@ -261,8 +293,7 @@ def _unpaired(confirmed, mate, free):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _place(
-    valid, object_id, pair, track, conf_a, id_a, mate_a, conf_b, id_b, mate_b, next_id, keep,
-    pending,
+    valid, object_id, pair, track, conf_a, id_a, mate_a, conf_b, id_b, mate_b, keep, pending,
 ):  # pragma: no cover - compiled  # fmt: skip
     """One ego's objects after the association, in place: a pairing that existed keeps its
     slot and id, the others go to free slots with new ids (module docstring; ``keep (F,)``,
@@ -298,7 +329,7 @@ def _place(
         while valid[f]:
             f += 1
         ia, ib = pending[k, 0], pending[k, 1]
-        valid[f], object_id[f], next_id[0] = True, next_id[0], next_id[0] + 1
+        valid[f], object_id[f] = True, UNNUMBERED
         pair[f, 0] = id_a[ia] if ia >= 0 else -1
         pair[f, 1] = id_b[ib] if ib >= 0 else -1
         track[f, 0], track[f, 1] = ia, ib

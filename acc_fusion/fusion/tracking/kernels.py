@@ -8,12 +8,12 @@ the frame step inlines the others.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse, predict_one
-from acc_fusion.fusion.tracking.assignment import gnn
+from acc_fusion.fusion.tracking.assignment import gnn, scratch_arrays
 
 #: State dimension [x, vx, y, vy] and the indices of the position components.
 DIM = 4
@@ -117,41 +117,89 @@ def _birth(x, p, zx, zy, rxx, rxy, ryy, rr, rr_std, azimuth, vel_var):  # pragma
     p[3, 3] = s * s * vr + c * c * vel_var
 
 
+#: The id of a track (or fused object) born in a frame, until :func:`number_new` numbers it.
+UNNUMBERED = -2
+
+
 @njit(cache=True)
 def track_step(
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
     rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, det_object, online,
-    speed0, speed1, yaw_rate, dt, params, next_id, scratch,
+    speed0, speed1, yaw_rate, dt, params, next_id, widest,
 ):  # pragma: no cover - compiled  # fmt: skip
     """One frame of every ego's tracks, in place (slot arrays ``(E, T, ...)``; the frame's
-    detections flat, ego ``e``'s in ``rows[e]:rows[e + 1]``).  ``params``: ``(q, gate,
-    confirm_m, confirm_n, delete_misses, max_coast, init_velocity_var)``; ``next_id[0]``: the
-    next unused track id; ``scratch``: :meth:`~acc_fusion.fusion.tracking.assignment.Scratch.arrays`
-    for ``T`` rows and the most detections of an ego."""
+    detections flat, ego ``e``'s in ``rows[e]:rows[e + 1]``, at most ``widest`` per ego).
+    ``params``: ``(q, gate, confirm_m, confirm_n, delete_misses, max_coast,
+    init_velocity_var)``; ``next_id[0]``: the next unused track id."""
+    conv = converted(rng, azimuth, range_std, azimuth_std)
+    _track_egos(0, valid.shape[0], x, p, valid, confirmed, track_id, detection, hits, misses,
+                scans, object_id, age, coast, rows, conv, azimuth, range_rate, range_rate_std,
+                det_object, online, speed0, speed1, yaw_rate, dt, params, widest)  # fmt: skip
+    number_new(track_id, next_id)
+
+
+@njit(cache=True, parallel=True)
+def track_step_parallel(
+    x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
+    rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, det_object, online,
+    speed0, speed1, yaw_rate, dt, params, next_id, widest, chunks,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`track_step` on the cores, the egos in ``chunks`` blocks, one thread each at a
+    time: the egos' tracks are independent, and the new tracks are numbered after, in the
+    order of the serial kernel, so the two give the same tracks bit for bit."""
+    conv = converted(rng, azimuth, range_std, azimuth_std)
+    n = valid.shape[0]
+    for c in prange(chunks):
+        _track_egos(c * n // chunks, (c + 1) * n // chunks, x, p, valid, confirmed, track_id,
+                    detection, hits, misses, scans, object_id, age, coast, rows, conv, azimuth,
+                    range_rate, range_rate_std, det_object, online, speed0, speed1, yaw_rate, dt,
+                    params, widest)  # fmt: skip
+    number_new(track_id, next_id)
+
+
+@njit(cache=True)
+def number_new(track_id, next_id):  # pragma: no cover - compiled
+    """Give the tracks born in this frame their ids, ego by ego and slot by slot (a frame's
+    new tracks of one ego take free slots in the order of their detections)."""
+    for e in range(track_id.shape[0]):
+        for t in range(track_id.shape[1]):
+            if track_id[e, t] == UNNUMBERED:
+                track_id[e, t], next_id[0] = next_id[0], next_id[0] + 1
+
+
+@njit(cache=True)
+def _track_egos(
+    lo, hi, x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age,
+    coast, rows, conv, azimuth, range_rate, range_rate_std, det_object, online, speed0, speed1,
+    yaw_rate, dt, params, widest,
+):  # pragma: no cover - compiled  # fmt: skip
+    """The frame of egos ``lo`` to ``hi`` (:func:`track_step`; ``conv``: the detections'
+    converted positions and covariances, :func:`converted`), with work arrays of its own;
+    new tracks are left :data:`UNNUMBERED`."""
     q, gate, m_conf, n_conf, max_misses, max_coast, vel_var = params
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast = (
         borrow((x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id,
                 age, coast))
     )  # fmt: skip
-    rows, rng, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate = (
-        borrow((rows, rng, azimuth, range_rate, range_rate_std, det_object, speed0, speed1,
-                yaw_rate))
-    )  # fmt: skip
-    scratch, next_id = borrow(scratch), borrow(next_id)
-    n_egos, n_slots = valid.shape
-    k_max = scratch[0].shape[1] - n_slots
+    rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate = borrow(
+        (rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate)
+    )
+    zx, zy, rxx, rxy, ryy = borrow(conv)
+    n_slots = valid.shape[1]
+    k_max = max(widest, 1)
     owners = (
         *cv_model(dt, q), np.empty(DIM), np.empty((DIM, DIM)), np.empty(2), np.empty((2, 2)),
         np.empty((2, 2)), np.empty((2, 2)), np.empty((DIM, 2)), np.empty((DIM, 2)),
-        np.empty((n_slots, k_max)), *converted(rng, azimuth, range_std, azimuth_std),
-        np.empty((DIM, DIM)), np.empty(DIM),
+        np.empty((n_slots, k_max)), np.empty((DIM, DIM)), np.empty(DIM),
     )  # fmt: skip
-    f, qm, xt, ap, y, s_mat, si, work, ph, kg, d2, zx, zy, rxx, rxy, ryy, a, b = borrow(owners)
+    f, qm, xt, ap, y, s_mat, si, work, ph, kg, d2, a, b = borrow(owners)
     int_owners = (np.empty(n_slots, np.int64), np.empty(n_slots, np.int64))
     slots, out = borrow(int_owners)
     used_owner = np.empty(k_max, np.bool_)
     used = borrow(used_owner)
-    for e in range(n_egos):
+    scratch_owner = scratch_arrays(n_slots, k_max)
+    scratch = borrow(scratch_owner)
+    for e in range(lo, hi):
         ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], f, a, b)
         n_t = 0
         for t in range(n_slots):
@@ -207,11 +255,11 @@ def track_step(
             _birth(x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], range_rate[k],
                    range_rate_std[k], azimuth[k], vel_var)  # fmt: skip
             valid[e, t], confirmed[e, t] = True, m_conf <= 1
-            track_id[e, t], next_id[0] = next_id[0], next_id[0] + 1
+            track_id[e, t] = UNNUMBERED
             detection[e, t], object_id[e, t] = k, det_object[k]
             hits[e, t], misses[e, t], scans[e, t] = 1, 0, 1
             age[e, t], coast[e, t] = 0.0, 0.0
-    keep_alive((owners, int_owners, used_owner))
+    keep_alive((owners, int_owners, used_owner, scratch_owner))
 
 
 @njit(cache=True, inline="always")

@@ -99,13 +99,13 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numba
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_range
-from acc_fusion.fusion.tracking.assignment import Scratch
-from acc_fusion.fusion.tracking.kernels import DIM, track_step
+from acc_fusion.fusion.tracking.kernels import DIM, track_step, track_step_parallel
 from acc_fusion.sensors.detections import Detections
 
 
@@ -224,6 +224,10 @@ class Tracks:
     object_id: np.ndarray
 
 
+#: Egos from which a frame's tracks are updated on all of numba's threads
+#: (:func:`~acc_fusion.fusion.tracking.kernels.track_step_parallel`); below it, starting the
+#: threads costs more than they save.
+PARALLEL_EGOS = 64
 #: The integer per-track arrays of a :class:`Tracker`, in the order of its ``_int`` rows.
 _INTS = ("track_id", "detection", "hits", "misses", "scans", "object_id")
 
@@ -280,7 +284,6 @@ class Tracker(PairState):
         self._age, self._coast = np.zeros((e, t)), np.zeros((e, t))
         self._speed = np.full(e, np.nan)  # the last step's ego speed (NaN: none yet)
         self._next_id = getattr(self, "_next_id", np.zeros(1, np.int64))
-        self._scratch = Scratch(t, 1)
         self.__dict__.pop("_parked", None)
 
     def forget(self, egos: np.ndarray) -> None:
@@ -313,16 +316,18 @@ class Tracker(PairState):
         self._speed = speed.copy()
         rows = det.rows()
         widest = int(np.diff(rows).max()) if det.count else 0
-        if self._scratch.cost.shape[1] < widest + self.config.max_tracks:
-            self._scratch = Scratch(self.config.max_tracks, 2 * widest)
         i = self._int
-        track_step(
+        args = (
             self._x, self._p, self._valid, self._confirmed, *i, self._age, self._coast, rows,
             det.range, det.azimuth, det.range_rate, det.range_std, det.azimuth_std,
             det.range_rate_std, det.object_id, bool(det.online), np.ascontiguousarray(speed0),
             np.ascontiguousarray(speed), np.ascontiguousarray(yaw), dt, self._params,
-            self._next_id, self._scratch.arrays(),
+            self._next_id, widest,
         )  # fmt: skip
+        if e >= PARALLEL_EGOS and numba.get_num_threads() > 1:
+            track_step_parallel(*args, min(e, 4 * numba.get_num_threads()))
+        else:
+            track_step(*args)
         return Tracks(
             t=float(det.t), sensor=self.sensor, valid=self._valid.copy(),
             confirmed=self._confirmed.copy(), track_id=i[0].copy(), state=self._x.copy(),
