@@ -60,9 +60,10 @@ def borrow(typingctx, arrays):  # pragma: no cover - compiled
 
 @intrinsic
 def keep_alive(typingctx, owners):  # pragma: no cover - compiled
-    """Use ``owners`` (a tuple of arrays) here, so that numba frees them no earlier: the
-    arrays a kernel allocated and :func:`borrow`\\ ed (module docstring).  Does nothing."""
-    if not isinstance(owners, types.BaseTuple):
+    """Use ``owners`` (an array, or a tuple of them) here, so that numba frees them no
+    earlier: the arrays a kernel allocated and :func:`borrow`\\ ed (module docstring).  Does
+    nothing."""
+    if not isinstance(owners, (types.Array, types.BaseTuple)):
         return None
 
     def codegen(context, builder, signature, args):

@@ -4,6 +4,7 @@ master filter fusing them, information sharing β and the reset modes (hu2005; k
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
@@ -21,10 +22,17 @@ from acc_fusion.fusion.kernels import (
     _confirmed,
     _drop_pairs,
     _federated_step,
+    _federated_step_parallel,
     _share_pairs,
     jump_start,
     jump_vectors,
 )
+
+#: Pairs from which a step of the federated filter runs on all of numba's threads
+#: (:func:`~acc_fusion.fusion.kernels._federated_step_parallel`): below it the threads' start
+#: costs more than they save, and the 1-D pipeline, whose SUMO runs in a process of its own
+#: on the other core, keeps to one (its default 1 024 slots stay below).
+PARALLEL_PAIRS = 2048
 
 
 class FederatedFilter(Estimator):
@@ -284,7 +292,7 @@ class FederatedFilter(Estimator):
         used = np.empty(self.n_pairs, dtype=bool)
         fdi = self.fdi
         fc = self.config.filter
-        _federated_step(
+        args = (
             self.master.x[0], self.master.p[0], self.locals.x, self.locals.p, self.f, self.q,
             *input_args(self.b, self._u), self.h, z, r, valid, self.initialised,
             self._reported_at, self._explained_at, *self._track_arrays(),
@@ -294,6 +302,10 @@ class FederatedFilter(Estimator):
             self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
             self._coast_limit, self._nis, used,
         )  # fmt: skip
+        if self.n_pairs >= PARALLEL_PAIRS and numba.get_num_threads() > 1:
+            _federated_step_parallel(*args, 4 * numba.get_num_threads())
+        else:
+            _federated_step(*args)
         self._infl = None
         self._online_at[self._online] = self._t
         self._k += 1

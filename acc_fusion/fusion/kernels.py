@@ -7,7 +7,7 @@ sharing and dropping kernels.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.motion import (
@@ -154,8 +154,7 @@ def _federated_step(
     xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at, beta, beta0,
     seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
     clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
-    trace, fuse_now,
-    accel_var, t, coast_limit, nis, used,
+    trace, fuse_now, accel_var, t, coast_limit, nis, used,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`FederatedFilter._advance` of every pair, in place, pair by pair.
 
@@ -170,35 +169,114 @@ def _federated_step(
     rejoining sensors are known, the re-sharing they cause (of every pair, as the reference
     does), the bookkeeping and the loss of tracks whose every sensor is isolated or silent.
     """
-    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at = borrow(
-        (xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at)
-    )
-    beta, beta0, seen, needed, nis, used = borrow((beta, beta0, seen, needed, nis, used))
-    buf, total, count, pos, isolated, verdict, suspect, last, frozen, age = borrow(
-        (buf, total, count, pos, isolated, verdict, suspect, last, frozen, age)
-    )
-    n_s, n_pairs = valid.shape
-    n, m = STATE_DIM, MEAS_DIM
-    floats = (
-        np.empty(n), np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, m)),
-        np.empty((n, m)), np.empty(m), np.empty((m, m)), np.empty((m, m)), np.empty((m, m)),
-        np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
-        np.empty(n), np.empty((n, n)), np.empty(n_s), np.full((n_pairs, n_s), np.inf),
-        np.empty(n), np.empty(n), np.empty((n, n)),
+    state = _state(
+        xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at,
+        beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect,
+        last, frozen, gate, clip, threshold, common_steps, manoeuvre_first, var, age, inflate,
+        feedback, increments, trace, fuse_now, accel_var, t, coast_limit, nis, used,
     )  # fmt: skip
-    xt, fp, x0, p0, pht, kg, y, s_mat, si, work_m, info, vec, yi, ym, work, xf, pf, w, wide = (
-        borrow(floats[:19])
+    flags = _pair_flags(valid.shape[0], valid.shape[1])
+    again = _federated_first(0, valid.shape[1], state, flags)
+    _federated_second(0, valid.shape[1], state, flags, again)
+
+
+@njit(cache=True, parallel=True)
+def _federated_step_parallel(
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at, beta, beta0,
+    seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
+    clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
+    trace, fuse_now, accel_var, t, coast_limit, nis, used, chunks,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_federated_step` on the cores, the pairs in ``chunks`` blocks: each pass is
+    pair by pair, and the second waits for every pair's first (the re-sharing needs the whole
+    step's rejoining sensors), so the two give the same estimates bit for bit."""
+    n_pairs = valid.shape[1]
+    reporting, consumed, accepted, rejoined, manoeuvre, jump, active, wide = _pair_flags(
+        valid.shape[0], n_pairs
     )
-    g, gm, pw = borrow(floats[19:])
-    flags = (
+    again = np.zeros(chunks, dtype=np.bool_)
+    go = False
+    for second in (False, True):  # a parallel loop takes arrays, not tuples: made inside
+        for c in prange(chunks):
+            state = _state(
+                xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at,
+                explained_at, beta, beta0, seen, needed, has_fdi, buf, total, count, pos,
+                isolated, verdict, suspect, last, frozen, gate, clip, threshold, common_steps,
+                manoeuvre_first, var, age, inflate, feedback, increments, trace, fuse_now,
+                accel_var, t, coast_limit, nis, used,
+            )  # fmt: skip
+            flags = (reporting, consumed, accepted, rejoined, manoeuvre, jump, active, wide)
+            lo, hi = c * n_pairs // chunks, (c + 1) * n_pairs // chunks
+            if second:
+                _federated_second(lo, hi, state, flags, go)
+            else:
+                again[c] = _federated_first(lo, hi, state, flags)
+        go = again.any()
+
+
+@njit(cache=True)
+def _state(
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid, initialised, reported_at, explained_at, beta, beta0,
+    seen, needed, has_fdi, buf, total, count, pos, isolated, verdict, suspect, last, frozen, gate,
+    clip, threshold, common_steps, manoeuvre_first, var, age, inflate, feedback, increments,
+    trace, fuse_now, accel_var, t, coast_limit, nis, used,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_federated_step`'s arguments grouped for its passes: the filters and
+    measurements, the tracks' state, the fault detector's windows, the settings."""
+    return (
+        (xm, pm, xl, pl, f, q, b, u, h, z, r, valid),
+        (initialised, reported_at, explained_at, beta, beta0, seen, needed, nis, used),
+        (buf, total, count, pos, isolated, verdict, suspect, last, frozen, age),
+        (has_fdi, gate, clip, threshold, common_steps, manoeuvre_first, var, inflate, feedback,
+         increments, trace, fuse_now, accel_var, t, coast_limit),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _pair_flags(n_s, n_pairs):  # pragma: no cover - compiled
+    """The per-pair work arrays of one step of :func:`_federated_step`: ``reporting``,
+    ``consumed``, ``accepted``, ``rejoined (N, S)``, ``manoeuvre``, ``jump (N,)``, ``active
+    (S, N)`` and ``wide (N, S)``, the NIS against a jump's prior (inf: none tested)."""
+    return (
         np.zeros((n_pairs, n_s), dtype=np.bool_), np.zeros((n_pairs, n_s), dtype=np.bool_),
         np.zeros((n_pairs, n_s), dtype=np.bool_), np.zeros((n_pairs, n_s), dtype=np.bool_),
         np.zeros(n_pairs, dtype=np.bool_), np.zeros(n_pairs, dtype=np.bool_),
-        np.zeros((n_s, n_pairs), dtype=np.bool_),
+        np.zeros((n_s, n_pairs), dtype=np.bool_), np.full((n_pairs, n_s), np.inf),
     )  # fmt: skip
-    reporting, consumed, accepted, rejoined, manoeuvre, jump, active = borrow(flags)
+
+
+@njit(cache=True)
+def _scratch(n_s):  # pragma: no cover - compiled
+    """The small work arrays of one thread of :func:`_federated_step`."""
+    n, m = STATE_DIM, MEAS_DIM
+    return (
+        np.empty(n), np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, m)),
+        np.empty((n, m)), np.empty(m), np.empty((m, m)), np.empty((m, m)), np.empty((m, m)),
+        np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
+        np.empty(n), np.empty((n, n)), np.empty(n_s), np.empty(n), np.empty(n), np.empty((n, n)),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _federated_first(lo, hi, state, flags):  # pragma: no cover - compiled
+    """The first pass of :func:`_federated_step` over pairs ``lo`` to ``hi`` (``state``: its
+    arguments, ``flags``: :func:`_pair_flags`); whether a sensor rejoined in any."""
+    filters, tracks, windows, params = state
+    xm, pm, xl, pl, f, q, b, u, h, z, r, valid = borrow(filters)
+    initialised, reported_at, explained_at, beta, beta0, seen, needed, nis, used = borrow(tracks)
+    buf, total, count, pos, isolated, verdict, suspect, last, frozen, age = borrow(windows)
+    (has_fdi, gate, clip, threshold, common_steps, manoeuvre_first, var, inflate, feedback,
+     increments, trace, fuse_now, accel_var, t, coast_limit) = params  # fmt: skip
+    reporting, consumed, accepted, rejoined, manoeuvre, jump, active, wide = borrow(flags)
+    n_s = valid.shape[0]
+    n, m = STATE_DIM, MEAS_DIM
+    floats = _scratch(n_s)
+    xt, fp, x0, p0, pht, kg, y, s_mat, si, work_m, info, vec, yi, ym, work, xf, pf, w, g, gm = (
+        borrow(floats[:20])
+    )
+    pw = borrow(floats[20])
     any_rejoined = False
-    for k in range(n_pairs):
+    for k in range(lo, hi):
         uk = u[k % u.size]
         if initialised[k]:
             predict_one(xm[k], pm[k], f, q, 1.0, b, uk, xt, fp, n)
@@ -277,7 +355,24 @@ def _federated_step(
                 for s in range(n_s):
                     if active[s, k]:
                         assign_one(xl[s, k], pl[s, k], xf, pf, _inflation_one(beta[s, k], inflate))
-    for k in range(n_pairs):
+    keep_alive(floats)
+    return any_rejoined
+
+
+@njit(cache=True)
+def _federated_second(lo, hi, state, flags, any_rejoined):  # pragma: no cover - compiled
+    """The second pass of :func:`_federated_step` over pairs ``lo`` to ``hi``."""
+    filters, tracks, windows, params = state
+    xm, pm, xl, pl = borrow(filters[:4])
+    initialised, reported_at, _, beta, beta0, seen, needed, _, used = borrow(tracks)
+    buf, total, count, pos, isolated, verdict, suspect, last, frozen, _ = borrow(windows)
+    has_fdi, inflate, trace, t = params[0], params[7], params[10], params[13]
+    coast_limit = params[14]
+    reporting, consumed, accepted, rejoined, _, _, active, _ = borrow(flags)
+    n_s = pl.shape[0]
+    w_owner = np.empty(n_s)
+    w = borrow(w_owner)
+    for k in range(lo, hi):
         ini = initialised[k]
         if any_rejoined:
             _share_one(k, active, pl, beta, beta0, trace, w)
@@ -301,7 +396,7 @@ def _federated_step(
             initialised[k] = False
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
                       verdict, suspect, last, frozen)  # fmt: skip
-    keep_alive((floats, flags))
+    keep_alive(w_owner)
 
 
 @njit(cache=True, inline="always")
