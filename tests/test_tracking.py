@@ -411,3 +411,66 @@ def test_trackers_and_the_associator_resize_to_a_prefix_and_back(rng):
     again = assoc.step(radar.step(d[0], scene.speed, scene.yaw_rate, DT),
                        infrared.step(d[1], scene.speed, scene.yaw_rate, DT))  # fmt: skip
     np.testing.assert_array_equal(again.object_id, fused.object_id)  # coasting: the same
+
+
+def _many_egos(n_egos, rng):
+    """``n_egos`` egos, some turning, each with eight vehicles of its own ahead, in its lane
+    and beside it, driving at about its speed."""
+    speed = rng.uniform(15.0, 30.0, n_egos)
+    objects = []
+    for e in range(n_egos):
+        k = 8
+        ids = 100 * e + np.arange(k)
+        x0, y0 = rng.uniform(30.0, 90.0, k), rng.uniform(-6.0, 6.0, k)
+        vx, vy = speed[e] + rng.normal(0.0, 3.0, k), rng.normal(0.0, 0.3, k)
+        objects.append(np.column_stack([ids, x0, y0, vx, vy]))
+    yaw = np.where(rng.random(n_egos) < 0.3, rng.normal(0.0, 0.02, n_egos), 0.0)
+    return Scene(objects, speed, yaw)
+
+
+def _chain(scene, seed, frames=30):
+    """Both trackers, the association and the federated filter over ``frames`` frames (with
+    clutter, misses and an infrared camera at half rate): every output of the last frame."""
+    rng = np.random.default_rng(seed)
+    n = scene.n_egos
+    cfg = TrackerConfig()
+    radar, infrared = Tracker("radar", cfg, n), Tracker("infrared", cfg, n)
+    assoc = TrackAssociator(AssociationConfig(), n, (cfg.max_tracks, cfg.max_tracks))
+    fusion = FusionConfig(method="federated", filter=FilterConfig(dt=DT))
+    est = make_estimator(fusion, ("radar", "infrared"), n * assoc.n_slots)
+    for i in range(frames):
+        t = i * DT
+        d_r = detect(scene, t, "radar", rng, p_detect=0.9, clutter=1)
+        d_i = detect(scene, t, "infrared", rng, online=i % 2 == 0, p_detect=0.8)
+        t_r = radar.step(d_r, scene.speed, scene.yaw_rate, DT)
+        t_i = infrared.step(d_i, scene.speed, scene.yaw_rate, DT)
+        fused = assoc.step(t_r, t_i)
+        estimate = est.step(*fused_measurements(fused, (t_r, t_i), (d_r, d_i)))
+    return [*vars(t_r).values(), *vars(t_i).values(), *vars(fused).values(),
+            *vars(estimate).values()]  # fmt: skip
+
+
+def test_the_parallel_kernels_equal_the_serial_ones_bit_for_bit(monkeypatch):
+    """From 64 egos the trackers and the association, and from 2 048 pairs the federated
+    filter, run on numba's threads; their tracks, ids, fused objects and estimates are the
+    serial kernels' exactly."""
+    import acc_fusion.fusion.federated as federated
+    import acc_fusion.fusion.tracking.association as association
+    import acc_fusion.fusion.tracking.tracker as tracker
+
+    scene = _many_egos(80, np.random.default_rng(5))
+    assert scene.n_egos >= tracker.PARALLEL_EGOS
+    assert scene.n_egos * 2 * TrackerConfig().max_tracks >= federated.PARALLEL_PAIRS
+    parallel = _chain(scene, seed=9)
+    for module, name in ((tracker, "PARALLEL_EGOS"), (association, "PARALLEL_EGOS"),
+                         (federated, "PARALLEL_PAIRS")):  # fmt: skip
+        monkeypatch.setattr(module, name, 10**9)
+    serial = _chain(scene, seed=9)
+    assert len(parallel) == len(serial)
+    for a, b in zip(parallel, serial, strict=True):
+        if isinstance(a, np.ndarray):
+            np.testing.assert_array_equal(a, b)
+        else:
+            assert a == b
+    tracks_confirmed = parallel[2]
+    assert tracks_confirmed.sum() > 3 * scene.n_egos  # the scene gave the kernels work
