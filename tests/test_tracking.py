@@ -3,6 +3,7 @@ the 1-D federated filter."""
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
@@ -450,6 +451,7 @@ def _chain(scene, seed, frames=30):
             *vars(estimate).values()]  # fmt: skip
 
 
+@pytest.mark.skipif(numba.get_num_threads() < 2, reason="numba has one thread: no parallel run")
 def test_the_parallel_kernels_equal_the_serial_ones_bit_for_bit(monkeypatch):
     """From 64 egos the trackers and the association, and from 2 048 pairs the federated
     filter, run on numba's threads; their tracks, ids, fused objects and estimates are the

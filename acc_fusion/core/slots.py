@@ -43,8 +43,9 @@ class PairState:
     def resize(self, m: int) -> None:
         """Hold the first ``m`` pairs (``1 <= m <=`` the pairs the stage was built for).
 
-        A resized held array is a new C-contiguous array (the kernels' layout); a parked tail
-        may be a view of an older one, so that growing copies only the pairs that come back."""
+        A held array that changes size is a new C-contiguous array (the kernels' layout); a
+        parked tail may be a view of an older one (which it keeps in memory), so that growing
+        copies only the pairs that come back."""
         parked = self.__dict__.setdefault("_parked", {})
         for name, axis in self._PAIR_AXES.items():
             held = getattr(self, name)

@@ -143,6 +143,8 @@ def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
     ``b (n,)``; the known input ``u (M,)`` with N a multiple of M: row k uses ``u[k % M]``
     (K banks of M pairs share the pairs' inputs).
     """
+    if x.shape[1] != STATE_DIM:
+        raise ValueError("predict: the state must have STATE_DIM entries")
     x, p, f, q, q_scale, mask, b, u = borrow((x, p, f, q, q_scale, mask, b, u))
     n = STATE_DIM
     owners = (np.empty(n), np.empty((n, n)))

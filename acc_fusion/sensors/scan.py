@@ -87,6 +87,8 @@ class Returns:
             if index.shape != self.ego.shape:
                 raise IndexError(f"a mask of {index.shape} for {self.ego.size} returns")
             index = np.flatnonzero(index)
+        else:
+            index = index.astype(np.intp, copy=False)
         return Returns(self.ego.take(index), self.z.take(index, axis=1),
                        self.object_id.take(index), self.origin.take(index))  # fmt: skip
 

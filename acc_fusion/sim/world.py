@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
@@ -88,10 +89,9 @@ def alert_cause(
     if not frame.max_objects:  # no object ahead of any ego: whatever is selected is a ghost
         return np.full(n, CAUSES.index("ghost"), dtype=np.int64)
     lead_id = frame.lead_frame().leader_id if lead_id is None else lead_id
+    ids = [np.broadcast_to(np.asarray(a, dtype=np.int64), (n,)) for a in (truth_id, lead_id)]
     out = np.empty(n, dtype=np.int64)
-    _cause(frame.valid, frame.object_id, frame.kind, frame.lateral_speed,
-           np.asarray(truth_id, dtype=np.int64), np.asarray(lead_id, dtype=np.int64),
-           out)  # fmt: skip
+    _cause(frame.valid, frame.object_id, frame.kind, frame.lateral_speed, *ids, out)
     return out
 
 
@@ -272,6 +272,8 @@ class WorldPerception(PairState):
         selected) and its true id (``est`` over the pool's pairs)."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
+        if pair.max(initial=-1) >= est.x.shape[0]:  # the estimators hold every used pair
+            raise AccFusionError(f"an object slot's pair is beyond the {method} estimator's")
         ids, x, ground = np.empty((n, f), np.int64), np.empty((n, f)), np.empty((n, f))
         confirmed = np.empty((n, f), dtype=bool)
         _slot_view(pair, est.x, est.valid, fused.valid, fused.object_id, fused.track, v_ego,

@@ -9,6 +9,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numba
 import numpy as np
 from tqdm.auto import tqdm
 
@@ -163,7 +164,9 @@ def sumo_world_study(
     the first run's."""
     name = Path(sumo_config.sumocfg).stem
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
+    with ProcessPoolExecutor(
+        max_workers=2, mp_context=ctx, initializer=numba.set_num_threads, initargs=(1,)
+    ) as pool:  # two runs share the cores: one numba thread each
         jobs = {
             c.label: pool.submit(
                 _sumo_world_run,

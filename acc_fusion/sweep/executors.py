@@ -29,6 +29,8 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
+import numba
+
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.validation import check_choice
 from acc_fusion.sweep.chunks import run_chunk
@@ -46,7 +48,9 @@ Executor = Callable[[list["Chunk"]], Iterator[tuple["Chunk", dict]]]
 
 
 def _watch_parent(parent: int) -> None:
-    """Worker initializer: exit when the sweep process is gone (even after SIGKILL)."""
+    """Worker initializer: exit when the sweep process is gone (even after SIGKILL); one
+    numba thread (the pool's processes already share the cores)."""
+    numba.set_num_threads(1)
 
     def watch() -> None:
         while os.getppid() == parent:

@@ -167,17 +167,29 @@ class InPathSelector(PairState):
         if object_id.shape != self._ids.shape:
             raise InputError(f"object_id must have shape {self._ids.shape}, got {object_id.shape}")
         n, f = object_id.shape
-        self.curvature = path_curvature(cfg, speed, yaw_rate, road_curvature)
+        grid = {name: _shaped(name, a, (n, f), t) for name, a, t in (
+            ("x", x, float), ("y", y, float), ("ground_speed", ground_speed, float),
+            ("confirmed", confirmed, bool))}  # fmt: skip
+        kappa = path_curvature(cfg, speed, yaw_rate, road_curvature)
+        self.curvature = _shaped("the path curvature", kappa, (n,), float)
         self.offset, self.in_path = np.empty((n, f)), np.empty((n, f), dtype=bool)
         self.selected = np.empty(n, dtype=np.int64)
         _select(
-            object_id.astype(np.int64, copy=False), np.asarray(x, dtype=float),
-            np.asarray(y, dtype=float), np.asarray(ground_speed, dtype=float),
-            np.asarray(confirmed, dtype=bool), self.curvature, cfg.half_width,
-            cfg.stationary_speed, cfg.oncoming, STATIONARY_POLICIES.index(cfg.stationary),
-            self._ids, self._moved, self.offset, self.in_path, self.selected,
+            object_id.astype(np.int64, copy=False), *grid.values(), self.curvature,
+            cfg.half_width, cfg.stationary_speed, cfg.oncoming,
+            STATIONARY_POLICIES.index(cfg.stationary), self._ids, self._moved, self.offset,
+            self.in_path, self.selected,
         )  # fmt: skip
         return self.selected
+
+
+def _shaped(name: str, a, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """``a`` as an array of ``dtype`` broadcast to ``shape`` (a view), or a one-sentence
+    error naming it."""
+    try:
+        return np.broadcast_to(np.asarray(a, dtype=dtype), shape)
+    except ValueError:
+        raise InputError(f"{name} must have shape {shape}, got {np.shape(a)}") from None
 
 
 @njit(cache=True)

@@ -382,6 +382,8 @@ def fused_measurements(
     if slots is None:
         slots = np.arange(e * f)
     slots = np.asarray(slots, dtype=np.int64)
+    if slots.ndim != 1 or (slots.size and not -1 <= slots.min() <= slots.max() < e * f):
+        raise InputError(f"slots must be flat slots in [-1, {e * f}), one per pair")
     n = slots.size
     target = np.empty(n, np.int64)
     _targets(slots, fused.valid, fused.object_id, target)
@@ -389,6 +391,8 @@ def fused_measurements(
     for s, (trk, det) in enumerate(zip(tracks, detections, strict=True)):
         if trk.sensor != fused.sensors[s] or det.sensor != fused.sensors[s]:
             raise InputError(f"tracks and detections must be given in the order {fused.sensors}")
+        if trk.detection.shape[0] != e or det.n_egos != e:
+            raise InputError(f"the {trk.sensor} tracks and detections must be of {e} egos")
         z, r = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, MEAS_DIM, n))
         valid, ghost = np.empty(n, bool), np.empty(n, bool)
         _measure(slots, fused.track[..., s], trk.detection, det.range, det.azimuth,
