@@ -225,8 +225,9 @@ class Tracks:
 
 
 #: Egos from which a frame's tracks are updated on all of numba's threads
-#: (:func:`~acc_fusion.fusion.tracking.kernels.track_step_parallel`); below it, starting the
-#: threads costs more than they save.
+#: (:func:`~acc_fusion.fusion.tracking.kernels.track_step_parallel`).  On two cores, with
+#: A10KW's egos at 250 s (about 20 tracks each), the threads saved nothing at 16 egos and a
+#: third of the time at 64 (a throwaway probe, 2026-11-27); the association uses it too.
 PARALLEL_EGOS = 64
 #: The integer per-track arrays of a :class:`Tracker`, in the order of its ``_int`` rows.
 _INTS = ("track_id", "detection", "hits", "misses", "scans", "object_id")
