@@ -3,6 +3,7 @@ delay, and healthy data gives no detection over a fixed-seed batch of runs."""
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
@@ -349,3 +350,36 @@ def test_a_window_failed_on_a_rejected_report_raises_no_manoeuvre(engine):
         out = est.step(two_reports(k, dt, z, std), np.ones(1, dtype=np.int64))
     assert out.nis[0, 0] > est.fdi.gate and est.fdi._suspect[0, 0]
     assert np.sqrt(out.p[0, 2, 2]) < 0.5  # no jump: the acceleration stays known
+
+
+@pytest.mark.skipif(numba.get_num_threads() < 2, reason="numba has one thread: no parallel run")
+def test_the_parallel_federated_step_equals_the_serial_one_through_a_rejoin(monkeypatch):
+    """From ``PARALLEL_PAIRS`` pairs the federated filter runs on numba's threads.  Through a
+    radar bias that is isolated and then readmitted (the second pass's re-sharing of every
+    pair), its estimates and fault detector equal the serial kernel's exactly."""
+    import acc_fusion.fusion.federated as federated
+
+    n = federated.PARALLEL_PAIRS + 52
+    fault = {"radar_faults": (Fault("bias", start=ONSET, end=ONSET + 2.0, magnitude=5.0),)}
+
+    def run():  # without reset the locals keep their own estimates: a rejoin re-shares
+        fusion = FusionConfig(method="federated", filter=FOLLOWING_FILTER, reset="none")
+        est = make_estimator(fusion, SENSOR_NAMES, n)
+        src, sensors = following_source(n, 4), make_sensors(5, **fault)
+        frame, isolated = src.frame(), []
+        for _ in range(200):
+            out = est.step([s.measure(frame) for s in sensors], frame.leader_id)
+            isolated.append(out.isolated[:, 0].copy())
+            frame = src.advance()
+        return out, np.array(isolated), est.fdi.arrays()
+
+    parallel = run()
+    monkeypatch.setattr(federated, "PARALLEL_PAIRS", 10**9)
+    serial = run()
+    isolated = parallel[1]
+    assert isolated.any(axis=0).mean() > 0.9 and not isolated[-1].any()  # out, then back
+    np.testing.assert_array_equal(isolated, serial[1])
+    for a, b in zip(vars(parallel[0]).values(), vars(serial[0]).values(), strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(parallel[2], serial[2], strict=True):
+        np.testing.assert_array_equal(a, b)
