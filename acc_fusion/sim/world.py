@@ -34,7 +34,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numba import njit
 
-from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
@@ -272,8 +271,6 @@ class WorldPerception(PairState):
         selected) and its true id (``est`` over the pool's pairs)."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
-        if pair.max(initial=-1) >= est.x.shape[0]:  # the estimators hold every used pair
-            raise AccFusionError(f"an object slot's pair is beyond the {method} estimator's")
         ids, x, ground = np.empty((n, f), np.int64), np.empty((n, f)), np.empty((n, f))
         confirmed = np.empty((n, f), dtype=bool)
         _slot_view(pair, est.x, est.valid, fused.valid, fused.object_id, fused.track, v_ego,
@@ -305,7 +302,8 @@ def _slot_view(
     ``ids`` the fused object's id where its pair's estimate is valid (-1 elsewhere), ``x`` its
     range, ``ground`` its ground speed (the ego's speed plus its range-rate), ``confirmed``
     whether the thermal camera's track is in it (only for a ``classifying`` method).  A slot
-    without a pair reads pair 0, masked by its id."""
+    without a pair reads pair 0, masked by its id; every pair is inside the estimators'
+    prefix (the pool's extent is fitted to the used pairs each step)."""
     n, f = fused_valid.shape
     for e in range(n):
         for k in range(f):
