@@ -12,7 +12,8 @@ other:
   (``penetration`` 1, as ``acc-fusion sumo --sumocfg`` does by default), frames made and
   nothing done with them;
 * **objects**: the same source plus :meth:`acc_fusion.truth.sumo.objects.SumoObjects.frame`
-  at every step (every vehicle, the roadside objects, the per-ego search and transform);
+  at every step (every vehicle, the roadside objects, the per-ego search and transform), for
+  the prefix of slots that holds the egos, as the pipeline asks for it;
 * **pipeline**: :func:`acc_fusion.sim.world.simulate_world` on
   :class:`~acc_fusion.truth.sumo.world.SumoWorld` — the objects, the 2-D radar and thermal
   camera, a tracker per sensor, the track-to-track association, all four methods' estimators
@@ -58,10 +59,13 @@ QUIET = ("--verbose", "false", "--duration-log.statistics", "false")
 
 
 def _object_stages(source) -> list[Callable[[], object]]:
-    """The objects run's stages: the object frame of every step."""
+    """The objects run's stages: the object frame of every step, of the prefix of slots the
+    pipeline works on (:class:`~acc_fusion.core.slots.Extent`)."""
+    from acc_fusion.core.slots import Extent
     from acc_fusion.truth.sumo.objects import SumoObjects
 
-    return [SumoObjects(source).frame]
+    objects, extent = SumoObjects(source), Extent(source.n_pairs)
+    return [lambda: objects.frame(extent.fit(source.active))]
 
 
 #: The pipeline's stages and the methods timed as each: (module, class or None, name).
@@ -127,7 +131,7 @@ def _staged(factory: Callable, config, end: float, warmup: float) -> dict:
                 frame = outputs[0]
                 active = source.active
                 egos += int(active.sum())
-                objects += int(frame.valid[active].sum())
+                objects += int(frame.valid[active[: frame.n_egos]].sum())
         elapsed = time.perf_counter() - t0
         rss_end = _rss_mb()
     return {"wall": elapsed, "steps": steps, "egos": egos, "objects": objects,

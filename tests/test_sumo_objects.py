@@ -18,7 +18,7 @@ libsumo = pytest.importorskip("libsumo")
 
 from acc_fusion.cli.main import build_parser, main  # noqa: E402
 from acc_fusion.cli.sumo import run as sumo_command  # noqa: E402
-from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.sim.world import LANE_CHANGE_SPEED  # noqa: E402
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig  # noqa: E402
@@ -186,6 +186,35 @@ def test_the_compiled_reader_and_libsumo_s_getters_give_the_same_frames():
     assert a.valid.sum() > 100 and np.all(a.x[a.valid] <= 120) and np.all(np.abs(a.y[a.valid]) <= 8)
     for name in ObjectFrame.__dataclass_fields__:
         assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
+
+
+def test_the_frame_of_a_prefix_of_slots_is_the_head_of_the_whole_frame():
+    """Two object truths of one source, one asked for every slot, the other for the prefix
+    that holds the egos (the pipeline's way): the same frames, yaw rates included (their
+    memory of the slots beyond the prefix), and the same frame when asked again in the step."""
+    config = SumoConfig(str(bundled_nets()["ring"]), end=40, seed=4, capacity=256)
+    with SumoSource(config) as src:
+        a, b = SumoObjects(src), SumoObjects(src)
+        prefixes, turning = set(), 0
+        while not src.done:
+            src.advance()
+            active = src.active
+            top = int(np.flatnonzero(active)[-1]) + 1 if active.any() else 0
+            k = top + int(src.t) % 3  # prefixes longer than the egos' too
+            full, head = a.frame(), b.frame(k)
+            prefixes.add(k)
+            assert head.n_egos == k and b.frame(k) is head
+            again = b.frame(top)  # asked again in the step, for fewer slots: a view
+            assert again.n_egos == top and np.shares_memory(again.x, head.x) == (top > 0)
+            cut = full.head(k)
+            for name in ObjectFrame.__dataclass_fields__:
+                assert np.array_equal(getattr(cut, name), getattr(head, name), equal_nan=True)
+            turning += int(np.count_nonzero(head.ego_yaw_rate))
+        assert len(prefixes) >= 3 and turning > 1000, (prefixes, turning)
+        with pytest.raises(InputError, match="leaves out active slots"):
+            b.frame(0)
+        with pytest.raises(InputError, match="egos must be an integer"):
+            b.frame(config.capacity + 1)
 
 
 def test_on_the_ring_curvature_and_yaw_rate_follow_the_circle():

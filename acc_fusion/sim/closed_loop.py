@@ -321,6 +321,14 @@ def _track_inputs(ok, x, p, gap, v_rel, a_lead, gap_std):  # pragma: no cover - 
             gap[i] = v_rel[i] = a_lead[i] = gap_std[i] = 0.0
 
 
+def _head(source, k: int):
+    """The frame of ``source``'s first ``k`` slots: its ``head(k)`` where it has one (a source
+    that makes the frame of a prefix faster than the whole, e.g.
+    :class:`~acc_fusion.truth.sumo.world.SumoWorld`), else ``frame().head(k)``."""
+    head = getattr(source, "head", None)
+    return source.frame().head(k) if head is None else head(k)
+
+
 def simulate(
     config: SimConfig,
     *,
@@ -386,11 +394,12 @@ def simulate(
             unit="step",
             leave=False,
         ):
-            frame, active, collided = source.frame(), source.active, source.collided
+            active, collided = source.active, source.collided
             new = getattr(source, "reassigned", None)
             k = extent.fit_stages(active, stages)
+            frame = source.frame() if k == n else _head(source, k)
             if k < n:
-                frame, active, collided = frame.head(k), active[:k], collided[:k]
+                active, collided = active[:k], collided[:k]
                 new = None if new is None else new[:k]
             looking = None if monitor is None else monitor.watch(frame.t, driver.eyes_off, new)
             attentive = adaptive.attentive(looking, frame.ego_accel)

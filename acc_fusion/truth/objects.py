@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 from enum import IntEnum
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.validation import check_array
@@ -53,6 +54,23 @@ _FLOAT_FIELDS = (
     "x", "y", "elevation", "vx", "vy", "speed", "accel", "heading",
     "length", "width", "height", "rcs", "thermal_contrast",
 )  # fmt: skip
+
+
+#: The float fields an :class:`ObjectFrame` checks (finite in the used slots).
+_CHECKED_FLOATS = (*_FLOAT_FIELDS, "lateral_speed")
+
+
+@njit(cache=True)
+def _first_non_finite(arrays, valid):  # pragma: no cover - compiled
+    """The index of the first of ``arrays`` (each ``(E, M)``) with a non-finite value where
+    ``valid``, or -1: one pass over the used slots."""
+    for i in range(len(arrays)):
+        a = arrays[i]
+        for e in range(valid.shape[0]):
+            for j in range(valid.shape[1]):
+                if valid[e, j] and not np.isfinite(a[e, j]):
+                    return i
+    return -1
 
 
 @dataclass(frozen=True)
@@ -131,9 +149,18 @@ class ObjectFrame:
             object.__setattr__(self, name, check_array(name, getattr(self, name), (e,)))
         if self.lateral_speed is None:
             object.__setattr__(self, "lateral_speed", np.zeros((e, m)))
-        for name in (*_FLOAT_FIELDS, "lateral_speed"):
-            value = check_array(name, getattr(self, name), (e, m), where=valid)
+        floats = []
+        for name in _CHECKED_FLOATS:
+            value = np.ascontiguousarray(getattr(self, name), dtype=float)  # one array type
+            if value.shape != (e, m):
+                raise InputError(f"{name} must have shape {(e, m)}, got {value.shape}")
             object.__setattr__(self, name, value)
+            floats.append(value)
+        bad = _first_non_finite(tuple(floats), valid)
+        if bad >= 0:
+            raise InputError(
+                f"{_CHECKED_FLOATS[bad]} must be finite (no NaN or inf) in the used slots"
+            )
         for name, dtype in (("object_id", np.int64), ("kind", np.int8), ("lane", np.int64)):
             value = np.asarray(getattr(self, name))
             if value.shape != (e, m) or not np.issubdtype(value.dtype, np.integer):

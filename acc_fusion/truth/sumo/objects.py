@@ -89,7 +89,7 @@ from operator import itemgetter
 
 import numpy as np
 
-from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.validation import check_range
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind
 from acc_fusion.truth.sumo.object_kernels import _fill, _grid, _search
@@ -207,9 +207,9 @@ class SumoObjects:
         self._static: dict[str, tuple[float, float, float, float, float]] = {}
         self._room = 4096  # hits (ego, object) the search can hold, grown as needed
         n = source.n_pairs
-        self._prev_heading = np.zeros(n)
-        self._prev_id = np.full(n, -1, dtype=np.int64)
-        self._prev_t = math.nan
+        # Headings and vehicle ids of the slots, with their time: at the previous step and
+        # at the current one (see _yaw_rate).
+        self._prev = self._now = (np.zeros(n), np.full(n, -1, dtype=np.int64), math.nan)
         self._frame: ObjectFrame | None = None
         # Per vehicle (by object id): edge row and lane index at the last frame, time of its
         # last lane change and the lateral speed given it (module docstring).
@@ -302,15 +302,26 @@ class SumoObjects:
         }
         return ids, state
 
-    def frame(self) -> ObjectFrame:
+    def frame(self, egos: int | None = None) -> ObjectFrame:
         """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step (the
-        same frame when asked again in the step)."""
+        same frame when asked again in the step).
+
+        Args:
+            egos: make the frame of the first ``egos`` slots only (``frame().head(egos)``
+                without the work on the others); they must include every active slot.
+                ``None``: every slot.
+
+        Raises:
+            InputError: ``egos`` is out of range or leaves out an active slot.
+        """
         src, cfg = self._source, self.config
         if src.closed:
             raise ConfigError("the SUMO source is closed")
         truth = src.frame()
-        if self._frame is not None and self._frame.t == truth.t:  # asked again this step
-            return self._frame
+        n = src.n_pairs if egos is None else self._prefix(egos)
+        cached = self._frame
+        if cached is not None and cached.t == truth.t and cached.n_egos >= n:  # asked again
+            return cached.head(n)
         ids, veh = self._vehicles(truth.t)
         road, nv = self.roadside, len(ids)
         nr = len(road)
@@ -324,9 +335,8 @@ class SumoObjects:
         props = np.concatenate([veh["props"], self._road_props], axis=1)
         # The egos: each slot's row among the objects (-1: none).
         row_of = dict(zip(ids, range(nv), strict=True))
-        n = src.n_pairs
-        ego = np.fromiter(map(row_of.get, src.vehicle_ids, repeat(-1)), np.int64, n)
-        ego[~src.active] = -1
+        ego = np.fromiter(map(row_of.get, src.vehicle_ids[:n], repeat(-1)), np.int64, n)
+        ego[~src.active[:n]] = -1
         has = ego >= 0
         rows = np.where(has, ego, 0)
         heading = np.where(has, obj["heading"][rows], 0.0)
@@ -343,14 +353,15 @@ class SumoObjects:
                 break
             self._room = 2 * total
         out = _outputs(n, int(counts.max()) if n else 0)
-        _fill(ego, counts, *hits, truth.leader_id, truth.ego_speed, curvature, lane_width,
+        ego_speed = truth.ego_speed[:n]
+        _fill(ego, counts, *hits, truth.leader_id[:n], ego_speed, curvature, lane_width,
               cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
               *out)  # fmt: skip
         floats, object_id, kinds, lane, lead = out
         self._frame = ObjectFrame(
             t=truth.t,
-            ego_speed=truth.ego_speed,
-            ego_accel=truth.ego_accel,
+            ego_speed=ego_speed,
+            ego_accel=truth.ego_accel[:n],
             ego_yaw_rate=self._yaw_rate(truth.t, heading, ego_id, has),
             road_curvature=curvature,
             valid=object_id >= 0,
@@ -361,6 +372,16 @@ class SumoObjects:
             **dict(zip(_FIELDS, floats, strict=True)),
         )
         return self._frame
+
+    def _prefix(self, egos: int) -> int:
+        """``egos`` checked as the length of a prefix of the slots holding every active one."""
+        n, active = self._source.n_pairs, self._source.active
+        if not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
+            raise InputError(f"egos must be an integer in [0, {n}], got {egos!r}")
+        if active[egos:].any():
+            raise InputError(f"egos = {egos} leaves out active slots; give at least "
+                             f"{int(np.flatnonzero(active)[-1]) + 1}")  # fmt: skip
+        return int(egos)
 
     def _ego_lane(self, ego: np.ndarray, veh: dict) -> tuple[np.ndarray, np.ndarray]:
         """Road curvature [1/m] and lane width [m] at each ego (0 and 1 for empty slots)."""
@@ -376,11 +397,17 @@ class SumoObjects:
         return curvature, width
 
     def _yaw_rate(self, t: float, heading: np.ndarray, ids: np.ndarray, has: np.ndarray):
-        """``(E,)`` heading change per second since the last frame of the same vehicle."""
-        same = has & (ids == self._prev_id) & (t > self._prev_t)
-        dt = t - self._prev_t if same.any() else 1.0
-        yaw = np.where(same, np.angle(np.exp(1j * (heading - self._prev_heading))) / dt, 0.0)
-        self._prev_heading, self._prev_id, self._prev_t = heading, ids, t
+        """``(E,)`` heading change per second since the last frame of the same vehicle (the
+        slots beyond ``E`` hold no vehicle now)."""
+        if t != self._now[2]:  # the step's first frame: the last step's become the previous
+            self._prev = self._now
+        (prev_heading, prev_id, prev_t), e = self._prev, ids.size
+        same = has & (ids == prev_id[:e]) & (t > prev_t)
+        dt = t - prev_t if same.any() else 1.0
+        yaw = np.where(same, np.angle(np.exp(1j * (heading - prev_heading[:e]))) / dt, 0.0)
+        rest = prev_id.size - e
+        self._now = (np.concatenate([heading, np.zeros(rest)]),
+                     np.concatenate([ids, np.full(rest, -1, np.int64)]), t)  # fmt: skip
         return yaw
 
 

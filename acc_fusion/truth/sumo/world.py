@@ -32,6 +32,11 @@ class SumoWorld:
         """The object frame of the current step."""
         return self.objects.frame()
 
+    def head(self, k: int) -> ObjectFrame:
+        """The object frame of the current step's first ``k`` slots (they hold every active
+        one), made without the work on the others: ``frame().head(k)``, faster."""
+        return self.objects.frame(k)
+
     def advance(self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None) -> None:
         """Run one SUMO step with the drivers' brake requests and held vehicles
         (:meth:`SumoSource.advance <acc_fusion.truth.sumo.source.SumoSource.advance>`)."""
