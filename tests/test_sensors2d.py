@@ -22,6 +22,7 @@ from acc_fusion.sensors.propagation import (
     rain_attenuation_77ghz,
 )
 from acc_fusion.sensors.radar2d import Radar2D, Radar2DSpec
+from acc_fusion.sensors.scan import Returns, emit
 from acc_fusion.sensors.suite2d import sensors_2d
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.objects import ObjectFrame, ObjectKind
@@ -314,6 +315,21 @@ def test_the_output_is_a_valid_detections_sorted_by_ego():
         rebuilt = Detections(**{k: getattr(d, k) for k in d.__dataclass_fields__})
         assert rebuilt.count == d.count
         assert set(np.unique(d.origin)) <= {*map(int, ObjectKind), GHOST, CLUTTER}
+
+
+def test_emit_sorts_the_returns_by_ego_keeping_their_order_within_an_ego():
+    ego = np.array([2, 0, 2, 1, 0, 2])
+    k = np.arange(ego.size, dtype=float)
+    returns = Returns(ego, np.stack([10.0 + k, k / 100, -k]), np.arange(ego.size) + 7,
+                      np.zeros(ego.size, np.int8))  # fmt: skip
+    d = emit(0.5, "radar", 3, returns, returns.z, np.stack([1.0 + k, 0.01 + k, 0.1 + k]))
+    order = [1, 4, 3, 0, 2, 5]  # by ego, stable
+    np.testing.assert_array_equal(d.ego, ego[order])
+    np.testing.assert_array_equal(d.range, 10.0 + k[order])
+    np.testing.assert_array_equal(d.range_rate_std, 0.1 + k[order])
+    np.testing.assert_array_equal(d.object_id, np.array(order) + 7)
+    with pytest.raises(InputError, match=r"egos must lie in \[0, 2\)"):
+        emit(0.5, "radar", 2, returns, returns.z, returns.z)
 
 
 def test_unused_slots_and_empty_frames_give_no_detections():

@@ -72,6 +72,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.special import ndtr
 
 from acc_fusion.sensors.detections import Detections
@@ -261,23 +262,46 @@ class Infrared2D(Scanner):
         s = self.spec
         if not self._due(frame, conditions):
             return offline(frame.t, s.name, frame.n_egos)
-        ego, at = self._objects(frame)
-        x, y = at(frame.x), at(frame.y)
-        drop = s.camera_height - at(frame.elevation)  # bottom edge below the camera [m]
+        half_fov = math.radians(s.hfov_deg) / 2
+        slot, x, y, r, rr, scale = _imaged(
+            np.flatnonzero(frame.valid), frame.x.ravel(), frame.y.ravel(),
+            frame.elevation.ravel(), frame.vx.ravel(), frame.vy.ravel(), s.camera_height,
+            s.focal_px, s.image_height_px, s.max_range,
+        )  # fmt: skip
         az = np.arctan2(y, x)
-        seen = (x > 0) & (drop > 0) & (np.abs(az) <= math.radians(s.hfov_deg) / 2)
-        seen &= s.focal_px * drop <= x * s.image_height_px / 2  # bottom edge in the image
-        scale = s.camera_height / np.where(seen, drop, s.camera_height)  # r̂ / r
-        r = np.hypot(x, y)
-        rr = (x * at(frame.vx) + y * at(frame.vy)) / np.maximum(r, 1e-9)
-        seen &= r * scale <= s.max_range
-        ego, kind = ego[seen], at(frame.kind)[seen]
+        seen = np.abs(az) <= half_fov
+        slot = slot[seen]
+        ego, kind = slot // max(frame.max_objects, 1), frame.kind.ravel()[slot]
         p = self.detection_probability(
-            r[seen], at(frame.width)[seen], at(frame.height)[seen],
-            at(frame.thermal_contrast)[seen], conditions,
+            r[seen], frame.width.ravel()[slot], frame.height.ravel()[slot],
+            frame.thermal_contrast.ravel()[slot], conditions,
         )  # fmt: skip
         p *= np.where(np.isin(kind, VEHICLE_KINDS), 1.0, s.misclass_prob)
         hit = self._rng.random(ego.size) < p
         z = np.stack([r * scale, az, rr * scale])[:, seen]
-        found = Returns(ego, z, at(frame.object_id)[seen], kind).take(hit)
+        found = Returns(ego, z, frame.object_id.ravel()[slot], kind).take(hit)
         return self._report(frame, found, s.false_rate, math.radians(s.hfov_deg) / 2)
+
+
+@njit(cache=True)
+def _imaged(
+    slots, x, y, elevation, vx, vy, camera_height, focal_px, image_height_px, max_range
+):  # pragma: no cover - compiled
+    """The object ``slots`` (flat indices into the frame's arrays, raveled) ahead whose
+    bottom edge is below the horizon and inside the image and whose measured range is within
+    ``max_range`` (module docstring: geometry; the azimuth test is the caller's), with their
+    ``x``, ``y``, range, range-rate and range scale :math:`\\hat r / r = H / (H - e)`."""
+    out = np.empty((5, slots.size))
+    kept = np.empty(slots.size, np.int64)
+    k = 0
+    for s in slots:
+        drop = camera_height - elevation[s]  # the bottom edge below the camera [m]
+        if not (x[s] > 0 and drop > 0 and focal_px * drop <= x[s] * image_height_px / 2):
+            continue
+        r, scale = math.hypot(x[s], y[s]), camera_height / drop
+        if r * scale <= max_range:
+            kept[k] = s
+            out[0, k], out[1, k], out[2, k], out[4, k] = x[s], y[s], r, scale
+            out[3, k] = (x[s] * vx[s] + y[s] * vy[s]) / max(r, 1e-9)
+            k += 1
+    return kept[:k], out[0, :k], out[1, :k], out[2, :k], out[3, :k], out[4, :k]

@@ -225,29 +225,26 @@ class Radar2D(Scanner):
         s = self.spec
         if not self._due(frame, conditions):
             return offline(frame.t, s.name, frame.n_egos)
-        ego, at = self._objects(frame)
-        x, y = at(frame.x), at(frame.y)
-        rise = np.maximum(at(frame.elevation) - s.mount_height, 0.0)
-        r = np.sqrt(x * x + y * y + rise * rise)
+        half_fov = math.radians(s.fov_deg) / 2
+        slot, x, y, r, rr = _covered(
+            np.flatnonzero(frame.valid), frame.x.ravel(), frame.y.ravel(),
+            frame.elevation.ravel(), frame.vx.ravel(), frame.vy.ravel(), s.mount_height,
+            s.min_range, s.max_range, math.tan(math.radians(s.elevation_fov_deg) / 2),
+        )  # fmt: skip
         az = np.arctan2(y, x)
-        rr = (x * at(frame.vx) + y * at(frame.vy)) / np.maximum(r, 1e-9)
-        seen = (x > 0) & (r >= s.min_range) & (r <= s.max_range)
-        seen &= (np.abs(az) <= math.radians(s.fov_deg) / 2) & (
-            rise <= x * math.tan(math.radians(s.elevation_fov_deg) / 2)
-        )
-        rcs = at(frame.rcs)
-        targets = Returns(ego, np.stack([r, az, rr]), at(frame.object_id), at(frame.kind))
-        ghosts = Returns(ego, np.stack([2 * r, az, 2 * rr]), np.full(ego.size, -1),
-                         np.full(ego.size, GHOST))  # fmt: skip
-        echo = seen & (2 * r <= s.max_range)
-        returns = targets.take(seen) + ghosts.take(echo)
-        snr = np.concatenate([
-            self.snr_db(rcs[seen], r[seen], conditions),
-            self.snr_db(rcs[echo], 2 * r[echo], conditions) - s.ghost_loss_db,
-        ])  # fmt: skip
-        returns, snr = _resolve(returns, snr, s)
-        hit = self._rng.random(snr.size) < _swerling1(s.pfa, snr)
-        return self._report(frame, returns.take(hit), s.clutter_rate, math.radians(s.fov_deg) / 2)
+        ego, z, object_id, origin, rcs, targets = _returns(
+            slot, slot // max(frame.max_objects, 1), r, az, rr, np.abs(az) <= half_fov,
+            frame.rcs.ravel(), frame.object_id.ravel(), frame.kind.ravel(), s.max_range,
+        )  # fmt: skip
+        snr = self.snr_db(rcs, z[0], conditions)
+        snr[targets:] -= s.ghost_loss_db
+        order = np.argsort(ego * (s.max_range + 1.0) + z[0])  # by ego, then range
+        cells = (s.range_resolution, math.radians(s.azimuth_resolution_deg),
+                 s.range_rate_resolution)  # fmt: skip
+        merged = _resolve(order, ego, z, object_id, origin, 10.0 ** (snr[order] / 10.0), *cells)
+        power = merged[-1]
+        hit = self._rng.random(power.size) < _swerling1(s.pfa, 10.0 * np.log10(power))
+        return self._report(frame, Returns(*merged[:-1]).take(hit), s.clutter_rate, half_fov)
 
 
 def _swerling1(pfa: float, snr_db: np.ndarray) -> np.ndarray:
@@ -255,15 +252,65 @@ def _swerling1(pfa: float, snr_db: np.ndarray) -> np.ndarray:
     return pfa ** (1.0 / (1.0 + 10.0 ** (np.asarray(snr_db) / 10.0)))
 
 
-def _resolve(returns: Returns, snr_db: np.ndarray, s: Radar2DSpec) -> tuple[Returns, np.ndarray]:
-    """Merge the returns no resolution cell separates (module docstring); the merged returns
-    and their SNR [dB]."""
-    order = np.argsort(returns.ego * (s.max_range + 1.0) + returns.z[0])  # by ego, then range
-    ret = returns.take(order)
-    cells = (s.range_resolution, math.radians(s.azimuth_resolution_deg), s.range_rate_resolution)
-    strongest, z, power = _merge(ret.ego, ret.z, 10.0 ** (snr_db[order] / 10.0), *cells)
-    merged = Returns(ret.ego[strongest], z, ret.object_id[strongest], ret.origin[strongest])
-    return merged, 10.0 * np.log10(power)
+@njit(cache=True)
+def _covered(
+    slots, x, y, elevation, vx, vy, mount_height, min_range, max_range, tan_half_elevation
+):  # pragma: no cover - compiled
+    """The object ``slots`` (flat indices into the frame's arrays, raveled) ahead, within
+    the range limits and the elevation beam (module docstring: coverage; the azimuth test is
+    the caller's), with their ``x``, ``y``, range to the lower edge and range-rate."""
+    out = np.empty((4, slots.size))
+    kept = np.empty(slots.size, np.int64)
+    k = 0
+    for s in slots:
+        rise = max(elevation[s] - mount_height, 0.0)
+        r = np.sqrt(x[s] * x[s] + y[s] * y[s] + rise * rise)
+        if x[s] > 0 and min_range <= r <= max_range and rise <= x[s] * tan_half_elevation:
+            kept[k] = s
+            out[0, k], out[1, k], out[2, k] = x[s], y[s], r
+            out[3, k] = (x[s] * vx[s] + y[s] * vy[s]) / max(r, 1e-9)
+            k += 1
+    return kept[:k], out[0, :k], out[1, :k], out[2, :k], out[3, :k]
+
+
+@njit(cache=True)
+def _returns(
+    slot, ego, r, az, rr, in_fov, rcs, object_id, kind, max_range
+):  # pragma: no cover - compiled
+    """The returns of the covered slots within the field of view (:func:`_covered`; the
+    frame's ``rcs``, ``object_id`` and ``kind`` raveled): the targets, then the multipath
+    ghosts of those within half the maximum range (module docstring), as ``ego (K,)``,
+    ``z (3, K)``, ``object_id``, ``origin`` (int8), the RCS of each (the target's for a
+    ghost) and the number of targets."""
+    n = 0
+    for i in range(slot.size):
+        n += in_fov[i] + (in_fov[i] and 2 * r[i] <= max_range)
+    out_ego, z = np.empty(n, np.int64), np.empty((3, n))
+    oid, origin, out_rcs = np.empty(n, np.int64), np.empty(n, np.int8), np.empty(n)
+    k = 0
+    for ghosts in (False, True):
+        for i in range(slot.size):
+            if not in_fov[i] or (ghosts and not 2 * r[i] <= max_range):
+                continue
+            f = 2.0 if ghosts else 1.0
+            out_ego[k], out_rcs[k] = ego[i], rcs[slot[i]]
+            z[0, k], z[1, k], z[2, k] = f * r[i], az[i], f * rr[i]
+            oid[k] = -1 if ghosts else object_id[slot[i]]
+            origin[k] = GHOST if ghosts else kind[slot[i]]
+            k += 1
+        if not ghosts:
+            targets = k
+    return out_ego, z, oid, origin, out_rcs, targets
+
+
+@njit(cache=True)
+def _resolve(order, ego, z, object_id, origin, power, dr, daz, drr):  # pragma: no cover
+    """Merge the returns no resolution cell separates (module docstring): ``order`` sorts
+    them by ego then range and ``power`` is their linear SNR in that order (:func:`_merge`).
+    The merged returns' ``ego``, ``z``, ``object_id``, ``origin`` and summed SNR."""
+    ego, z, object_id, origin = ego[order], z[:, order], object_id[order], origin[order]
+    strongest, merged, total = _merge(ego, z, power, dr, daz, drr)
+    return ego[strongest], merged, object_id[strongest], origin[strongest], total
 
 
 @njit(cache=True)

@@ -16,10 +16,10 @@ Faults of the 2-D sensors
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
@@ -122,11 +122,35 @@ def emit(
 ) -> Detections:
     """The :class:`Detections` of ``returns`` measured as ``z (3, K)`` with the declared
     standard deviations ``declared_std (3, K)``, sorted by ego (stable)."""
-    order = np.argsort(returns.ego, kind="stable")
-    return Detections(
-        t, name, n_egos, True, returns.ego[order], *z[:, order], *declared_std[:, order],
-        returns.object_id[order], returns.origin[order],
+    ego = returns.ego
+    if ego.size and (ego.min() < 0 or ego.max() >= n_egos):
+        raise InputError(f"{name}: the returns' egos must lie in [0, {n_egos})")
+    ego, z, std, object_id, origin = _by_ego(
+        n_egos, ego, np.ascontiguousarray(z), np.ascontiguousarray(declared_std),
+        returns.object_id, returns.origin,
     )  # fmt: skip
+    return Detections(t, name, n_egos, True, ego, *z, *std, object_id, origin)
+
+
+@njit(cache=True)
+def _by_ego(n_egos, ego, z, std, object_id, origin):  # pragma: no cover - compiled
+    """The returns' ``ego`` (each in ``[0, n_egos)``), ``z (3, K)``, ``std (3, K)``,
+    ``object_id`` and ``origin``, sorted by ego (stable: a counting sort)."""
+    start = np.zeros(n_egos + 1, np.int64)
+    for i in range(ego.size):
+        start[ego[i] + 1] += 1
+    for e in range(n_egos):
+        start[e + 1] += start[e]
+    k = ego.size
+    out_ego, out_id, out_origin = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k, np.int8)
+    out_z, out_std = np.empty((3, k)), np.empty((3, k))
+    for i in range(k):
+        at = start[ego[i]]
+        start[ego[i]] += 1
+        out_ego[at], out_id[at], out_origin[at] = ego[i], object_id[i], origin[i]
+        for a in range(3):
+            out_z[a, at], out_std[a, at] = z[a, i], std[a, i]
+    return out_ego, out_z, out_std, out_id, out_origin
 
 
 def offline(t: float, name: str, n_egos: int) -> Detections:
@@ -232,18 +256,6 @@ class Scanner:
             )
         self._t_prev = frame.t
         return self._clock.due(frame.t)
-
-    @staticmethod
-    def _objects(frame: ObjectFrame) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
-        """The ego of every valid object slot, flat ``(K,)``, and the function that picks
-        those slots from an ``(E, M)`` array of the frame."""
-        flat = np.flatnonzero(frame.valid)  # row-major, as np.nonzero's (ego, slot) pairs
-        ego = flat // max(frame.valid.shape[1], 1)
-
-        def at(a: np.ndarray) -> np.ndarray:
-            return np.take(a, flat)
-
-        return ego, at
 
     def _report(
         self, frame: ObjectFrame, found: Returns, clutter_rate: float, half_fov: float
