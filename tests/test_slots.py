@@ -85,3 +85,24 @@ def test_pair_pool_keeps_the_used_pairs_a_dense_prefix():
     np.testing.assert_array_equal(pool.release(keys), [True, False, False, False])
     with pytest.raises(ConfigError, match="the pool of 4 pairs is full"):
         pool.update(np.ones(10, dtype=bool))
+
+
+def test_pair_pool_holds_exactly_the_live_keys_with_the_lowest_free_pairs():
+    rng = np.random.default_rng(5)
+    pool = PairPool(n_keys=64, n_pairs=40)
+    for _ in range(200):
+        live = rng.random(rng.integers(0, 65)) < 0.4
+        if live.sum() > 40:
+            continue
+        before, pairs_before = pool.key_of.copy(), pool.pair_of.copy()
+        freed = pool.update(live)
+        keys = np.flatnonzero(pool.pair_of >= 0)
+        np.testing.assert_array_equal(keys, np.flatnonzero(live))
+        np.testing.assert_array_equal(pool.key_of[pool.pair_of[keys]], keys)  # inverse maps
+        assert np.count_nonzero(pool.key_of >= 0) == keys.size
+        stayed = keys[pairs_before[keys] >= 0]
+        np.testing.assert_array_equal(pool.pair_of[stayed], pairs_before[stayed])  # kept
+        np.testing.assert_array_equal(freed, (before >= 0) & ~np.isin(before, stayed))
+        taken = pool.pair_of[keys[pairs_before[keys] < 0]]
+        free_then = np.flatnonzero(~np.isin(np.arange(40), pairs_before[stayed]))
+        np.testing.assert_array_equal(taken, free_then[: taken.size])  # the lowest, in order

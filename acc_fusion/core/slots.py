@@ -22,6 +22,7 @@ import hashlib
 from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.core.errors import ConfigError
 
@@ -171,13 +172,28 @@ class PairPool:
         keys; the keys beyond it are not live): free the pairs of the keys that left, give
         each new key the lowest free pair.  Returns the freed pairs ``(P,)`` (a pair freed
         and taken again in this call is among them)."""
-        alive = np.zeros(self.pair_of.size, dtype=bool)
-        alive[: live.size] = live
-        if alive.sum() > self.key_of.size:
+        live = np.asarray(live, dtype=bool)
+        if live.ndim != 1 or live.size > self.pair_of.size:
+            raise ConfigError(f"live must be a mask of at most {self.pair_of.size} keys")
+        if np.count_nonzero(live) > self.key_of.size:
             raise ConfigError(f"the pool of {self.key_of.size} pairs is full")
-        freed = self.release(~alive & (self.pair_of >= 0))
-        new = np.flatnonzero(alive & (self.pair_of < 0))
-        free = np.flatnonzero(self.key_of < 0)[: new.size]
-        self.key_of[free] = new
-        self.pair_of[new] = free
+        freed = np.zeros(self.key_of.size, dtype=bool)
+        _hold(live, self.pair_of, self.key_of, freed)
         return freed
+
+
+@njit(cache=True)
+def _hold(live, pair_of, key_of, freed):  # pragma: no cover - compiled
+    """:meth:`PairPool.update` in place, in one pass over the keys to free and one to
+    take: the keys that left give their pair back (marked in ``freed``), then each new key,
+    in ascending order, takes the lowest free pair."""
+    for k in range(pair_of.size):
+        p = pair_of[k]
+        if p >= 0 and not (k < live.size and live[k]):
+            key_of[p], pair_of[k], freed[p] = -1, -1, True
+    free = 0
+    for k in range(live.size):
+        if live[k] and pair_of[k] < 0:
+            while key_of[free] >= 0:
+                free += 1
+            key_of[free], pair_of[k] = k, free

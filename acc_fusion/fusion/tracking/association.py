@@ -393,13 +393,12 @@ def fused_measurements(
             raise InputError(f"tracks and detections must be given in the order {fused.sensors}")
         if trk.detection.shape[0] != e or det.n_egos != e:
             raise InputError(f"the {trk.sensor} tracks and detections must be of {e} egos")
-        z, r = np.empty((MEAS_DIM, n)), np.empty((MEAS_DIM, MEAS_DIM, n))
+        z, r = np.empty((n, MEAS_DIM)), np.empty((n, MEAS_DIM, MEAS_DIM))
         valid, ghost = np.empty(n, bool), np.empty(n, bool)
         _measure(slots, fused.track[..., s], trk.detection, det.range, det.azimuth,
                  det.range_std, det.azimuth_std, det.range_rate, det.range_rate_std,
                  det.origin, z, r, valid, ghost)  # fmt: skip
-        out.append(Measurement(det.t, det.sensor, z.T, r.transpose(2, 0, 1), valid, ghost,
-                               bool(det.online)))  # fmt: skip
+        out.append(Measurement(det.t, det.sensor, z, r, valid, ghost, bool(det.online)))
     return out, target
 
 
@@ -421,7 +420,7 @@ def _measure(
 ):  # pragma: no cover - compiled  # fmt: skip
     """One sensor's measurement of each pair (its flat slot in ``slots``): the detection its
     track in the slot (``track (E, F)``) took at this frame, as the converted ``x`` and the
-    range-rate, ``z (2, N)``, their variances in ``r (2, 2, N)`` (identity and NaN where it
+    range-rate, ``z (N, 2)``, their variances in ``r (N, 2, 2)`` (identity and NaN where it
     has none), ``valid`` and ``ghost`` (a ghost or clutter detection)."""
     f = track.shape[1]
     for i in range(slots.size):
@@ -431,11 +430,11 @@ def _measure(
             if t >= 0:
                 k = detection[q // f, t]
         valid[i] = k >= 0
-        r[0, 1, i], r[1, 0, i] = 0.0, 0.0
+        r[i, 0, 1], r[i, 1, 0] = 0.0, 0.0
         if k < 0:
-            z[0, i], z[1, i], r[0, 0, i], r[1, 1, i], ghost[i] = np.nan, np.nan, 1.0, 1.0, False
+            z[i, 0], z[i, 1], r[i, 0, 0], r[i, 1, 1], ghost[i] = np.nan, np.nan, 1.0, 1.0, False
             continue
         x, _, rxx, _, _ = converted(rng[k], azimuth[k], range_std[k], azimuth_std[k])
-        z[0, i], z[1, i] = x, range_rate[k]
-        r[0, 0, i], r[1, 1, i] = rxx, range_rate_std[k] ** 2
+        z[i, 0], z[i, 1] = x, range_rate[k]
+        r[i, 0, 0], r[i, 1, 1] = rxx, range_rate_std[k] ** 2
         ghost[i] = origin[k] == GHOST or origin[k] == CLUTTER
