@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from conftest import LG_FILTER, linear_gaussian_source, linear_sensors
 
+from acc_fusion.core.motion import (
+    MEASUREMENT_MATRIX,
+    STATE_DIM,
+    ca_process_noise,
+    ca_transition,
+)
+from acc_fusion.filters import kalman
 from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
 from acc_fusion.sensors.faults import Fault
@@ -138,3 +146,40 @@ def test_engines_agree_when_the_acceleration_jumps(monkeypatch, detection_prob):
         assert np.array_equal(a.isolated, b.isolated)
         np.testing.assert_allclose(a.x[a.valid], b.x[a.valid], rtol=0, atol=1e-9)
         np.testing.assert_allclose(a.p[a.valid], b.p[a.valid], rtol=0, atol=1e-9)
+
+
+@pytest.mark.skipif(numba.get_num_threads() < 2, reason="numba has one thread: no parallel run")
+def test_the_parallel_kalman_kernels_equal_the_serial_ones_bit_for_bit():
+    """From ``PARALLEL_PAIRS`` pairs the batched bank's time and measurement updates and the
+    NIS run on numba's threads, in blocks: the filters are independent, so every state,
+    covariance and NIS is the serial kernels' exactly (pairs masked out, pairs with one
+    measurement row, pairs with none)."""
+    rng = np.random.default_rng(3)
+    n = kalman.PARALLEL_PAIRS + 37
+    assert kalman.parallel_chunks(n) > 1
+    f, q, h = ca_transition(0.05), ca_process_noise(0.05, 2.0), MEASUREMENT_MATRIX
+    x0 = rng.normal(0.0, 10.0, (n, STATE_DIM))
+    a = rng.normal(size=(n, STATE_DIM, STATE_DIM))
+    p0 = a @ a.transpose(0, 2, 1) + np.eye(STATE_DIM)
+    z = rng.normal(0.0, 10.0, (n, 2))
+    r = np.eye(2) * rng.uniform(0.1, 2.0, (n, 1, 1))
+    rows = rng.random((n, 2)) < 0.8
+    mask, q_scale, u = rng.random(n) < 0.9, rng.uniform(0.5, 2.0, n), rng.normal(size=n)
+    b = np.array([0.0, -0.05, 0.0])
+    results = []
+    for chunks in (kalman.parallel_chunks(n), 0):
+        x, p = x0.copy(), p0.copy()
+        nis, prior = np.empty(n), np.empty(n)
+        if chunks:
+            kalman.predict_parallel(x, p, f, q, q_scale, mask, b, u, chunks)
+            kalman.innovation_nis_parallel(x, p, z, r, h, rows, prior, chunks)
+            kalman.update_parallel(x, p, z, r, h, rows, nis, chunks)
+        else:
+            kalman.predict(x, p, f, q, q_scale, mask, b, u)
+            kalman.innovation_nis(x, p, z, r, h, rows, prior)
+            kalman.update(x, p, z, r, h, rows, nis)
+        results.append((x, p, nis, prior))
+    for par, ser in zip(*results, strict=True):
+        np.testing.assert_array_equal(par, ser)
+    np.testing.assert_array_equal(results[0][2], results[0][3])  # the prior's NIS is the update's
+    assert np.isnan(results[0][2]).sum() == np.sum(~rows.any(axis=1))

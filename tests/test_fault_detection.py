@@ -357,9 +357,9 @@ def test_the_parallel_federated_step_equals_the_serial_one_through_a_rejoin(monk
     """From ``PARALLEL_PAIRS`` pairs the federated filter runs on numba's threads.  Through a
     radar bias that is isolated and then readmitted (the second pass's re-sharing of every
     pair), its estimates and fault detector equal the serial kernel's exactly."""
-    import acc_fusion.fusion.federated as federated
+    import acc_fusion.filters.kalman as kalman
 
-    n = federated.PARALLEL_PAIRS + 52
+    n = kalman.PARALLEL_PAIRS + 52
     fault = {"radar_faults": (Fault("bias", start=ONSET, end=ONSET + 2.0, magnitude=5.0),)}
 
     def run():  # without reset the locals keep their own estimates: a rejoin re-shares
@@ -374,7 +374,7 @@ def test_the_parallel_federated_step_equals_the_serial_one_through_a_rejoin(monk
         return out, np.array(isolated), est.fdi.arrays()
 
     parallel = run()
-    monkeypatch.setattr(federated, "PARALLEL_PAIRS", 10**9)
+    monkeypatch.setattr(kalman, "PARALLEL_PAIRS", 10**9)
     serial = run()
     isolated = parallel[1]
     assert isolated.any(axis=0).mean() > 0.9 and not isolated[-1].any()  # out, then back

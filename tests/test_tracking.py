@@ -265,7 +265,7 @@ def test_trackers_association_and_the_federated_filter_follow_the_lead(rng):
         t_i = infrared.step(d_i, scene.speed, scene.yaw_rate, DT)
         fused = assoc.step(t_r, t_i)
         meas, target = fused_measurements(fused, (t_r, t_i), (d_r, d_i))
-        assert meas[1].online == (i % 2 == 0) and meas[0].z.T.flags.c_contiguous
+        assert meas[1].online == (i % 2 == 0) and meas[0].z.flags.c_contiguous
         estimate = est.step(meas, target)
         for e, lead in ((0, 1), (1, 3)):
             f = np.flatnonzero(fused.valid[e] & (fused.track[e, :, 0] >= 0)
@@ -456,16 +456,16 @@ def test_the_parallel_kernels_equal_the_serial_ones_bit_for_bit(monkeypatch):
     """From 64 egos the trackers and the association, and from 2 048 pairs the federated
     filter, run on numba's threads; their tracks, ids, fused objects and estimates are the
     serial kernels' exactly."""
-    import acc_fusion.fusion.federated as federated
+    import acc_fusion.filters.kalman as kalman
     import acc_fusion.fusion.tracking.association as association
     import acc_fusion.fusion.tracking.tracker as tracker
 
     scene = _many_egos(80, np.random.default_rng(5))
     assert scene.n_egos >= tracker.PARALLEL_EGOS
-    assert scene.n_egos * 2 * TrackerConfig().max_tracks >= federated.PARALLEL_PAIRS
+    assert scene.n_egos * 2 * TrackerConfig().max_tracks >= kalman.PARALLEL_PAIRS
     parallel = _chain(scene, seed=9)
     for module, name in ((tracker, "PARALLEL_EGOS"), (association, "PARALLEL_EGOS"),
-                         (federated, "PARALLEL_PAIRS")):  # fmt: skip
+                         (kalman, "PARALLEL_PAIRS")):  # fmt: skip
         monkeypatch.setattr(module, name, 10**9)
     serial = _chain(scene, seed=9)
     assert len(parallel) == len(serial)

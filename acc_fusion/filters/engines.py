@@ -109,7 +109,7 @@ class BatchedBank(FilterBank):
 
     def predict(self, f, q, q_scale, mask, b=None, u=None):
         k, n, d = self._x.shape
-        kalman.predict(
+        args = (
             self._x.reshape(k * n, d),
             self._p.reshape(k * n, d, d),
             np.ascontiguousarray(f, dtype=float),
@@ -118,18 +118,14 @@ class BatchedBank(FilterBank):
             _per_filter(mask, (k, n), bool),
             *kalman.input_args(b, u),
         )
+        chunks = kalman.parallel_chunks(k * n)
+        kalman.predict_parallel(*args, chunks) if chunks else kalman.predict(*args)
 
     def update(self, j, z, r, h, rows):
         nis = np.empty(self.n_pairs)
-        kalman.update(
-            self._x[j],
-            self._p[j],
-            np.ascontiguousarray(z, dtype=float),
-            np.ascontiguousarray(r, dtype=float),
-            np.ascontiguousarray(h, dtype=float),
-            np.ascontiguousarray(rows, dtype=bool),
-            nis,
-        )
+        args = (self._x[j], self._p[j], *_measurement_args(z, r, h, rows), nis)
+        chunks = kalman.parallel_chunks(self.n_pairs)
+        kalman.update_parallel(*args, chunks) if chunks else kalman.update(*args)
         return nis
 
     def assign(self, j, mask, x, p, p_scale=None):
@@ -258,15 +254,13 @@ class Engine:
         """NIS of measurement rows ``(N, m)`` against the priors ``x (N, n)``, ``p (N, n, n)``."""
         out = np.full(x.shape[0], np.nan)
         if self.name == "batched":
-            kalman.innovation_nis(
-                np.ascontiguousarray(x),
-                np.ascontiguousarray(p),
-                np.ascontiguousarray(z, dtype=float),
-                np.ascontiguousarray(r, dtype=float),
-                np.ascontiguousarray(h, dtype=float),
-                np.ascontiguousarray(rows, dtype=bool),
-                out,
-            )
+            args = (np.ascontiguousarray(x), np.ascontiguousarray(p),
+                    *_measurement_args(z, r, h, rows), out)  # fmt: skip
+            chunks = kalman.parallel_chunks(x.shape[0])
+            if chunks:
+                kalman.innovation_nis_parallel(*args, chunks)
+            else:
+                kalman.innovation_nis(*args)
             return out
         for k in np.flatnonzero(rows.any(axis=1)):
             sel = rows[k]
@@ -274,3 +268,10 @@ class Engine:
             s = h[sel] @ p[k] @ h[sel].T + r[k][np.ix_(sel, sel)]
             out[k] = y @ np.linalg.solve(s, y)
         return out
+
+
+def _measurement_args(z, r, h, rows) -> tuple[np.ndarray, ...]:
+    """``z``, ``r``, ``h`` and ``rows`` as the batched kernels take them (contiguous float
+    arrays, ``rows`` boolean)."""
+    floats = (np.ascontiguousarray(a, dtype=float) for a in (z, r, h))
+    return (*floats, np.ascontiguousarray(rows, dtype=bool))

@@ -33,11 +33,26 @@ active row gets a NIS of NaN.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.motion import MEAS_DIM, STATE_DIM
+
+#: Pairs from which the batched kernels (here and the federated filter's,
+#: :func:`~acc_fusion.fusion.kernels._federated_step_parallel`) run on all of numba's threads:
+#: below it the threads' start costs more than they save, and the 1-D pipeline, whose SUMO
+#: runs in a process of its own on the other core, keeps to one (its default 1 024 slots stay
+#: below).
+PARALLEL_PAIRS = 2048
+
+
+def parallel_chunks(n_pairs: int) -> int:
+    """The blocks (four a thread) in which a batched kernel runs ``n_pairs`` pairs on the
+    cores, or 0: serially (below :data:`PARALLEL_PAIRS`, or with one numba thread)."""
+    threads = numba.get_num_threads()
+    return 4 * threads if n_pairs >= PARALLEL_PAIRS and threads > 1 else 0
 
 
 @njit(cache=True)
@@ -145,11 +160,28 @@ def predict(x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
     """
     if x.shape[1] != STATE_DIM:
         raise ValueError("predict: the state must have STATE_DIM entries")
+    _predict_range(0, x.shape[0], x, p, f, q, q_scale, mask, b, u)
+
+
+@njit(cache=True, parallel=True)
+def predict_parallel(x, p, f, q, q_scale, mask, b, u, chunks):  # pragma: no cover - compiled
+    """:func:`predict` on the cores, the pairs in ``chunks`` blocks (the filters are
+    independent: the same result bit for bit)."""
+    if x.shape[1] != STATE_DIM:
+        raise ValueError("predict: the state must have STATE_DIM entries")
+    n = x.shape[0]
+    for c in prange(chunks):
+        _predict_range(c * n // chunks, (c + 1) * n // chunks, x, p, f, q, q_scale, mask, b, u)
+
+
+@njit(cache=True)
+def _predict_range(lo, hi, x, p, f, q, q_scale, mask, b, u):  # pragma: no cover - compiled
+    """:func:`predict` of the pairs ``lo`` to ``hi``, with work arrays of its own."""
     x, p, f, q, q_scale, mask, b, u = borrow((x, p, f, q, q_scale, mask, b, u))
     n = STATE_DIM
     owners = (np.empty(n), np.empty((n, n)))
     xt, fp = borrow(owners)
-    for k in range(x.shape[0]):
+    for k in range(lo, hi):
         if mask[k]:
             predict_one(x[k], p[k], f, q, q_scale[k], b, u[k % u.size], xt, fp, STATE_DIM)
     keep_alive(owners)
@@ -226,15 +258,30 @@ def update(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     case) is updated with the row count known when compiling, which unrolls the loops over
     it (twice as fast); other pairs with their active rows gathered first.
     """
+    _update_range(0, x.shape[0], x, p, z, r, h, rows, nis)
+
+
+@njit(cache=True, parallel=True)
+def update_parallel(x, p, z, r, h, rows, nis, chunks):  # pragma: no cover - compiled
+    """:func:`update` on the cores, the pairs in ``chunks`` blocks (the same result bit for
+    bit)."""
+    n = x.shape[0]
+    for c in prange(chunks):
+        _update_range(c * n // chunks, (c + 1) * n // chunks, x, p, z, r, h, rows, nis)
+
+
+@njit(cache=True)
+def _update_range(lo, hi, x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
+    """:func:`update` of the pairs ``lo`` to ``hi``, with work arrays of its own."""
     x, p, z, r, h, rows, nis = borrow((x, p, z, r, h, rows, nis))
-    n_pairs, n = x.shape[0], STATE_DIM
+    n = STATE_DIM
     m_all = h.shape[0]
     full = m_all == MEAS_DIM
     owners = _row_scratch(m_all)
     idx, hs, zs, rs, s_mat, si, work, y = borrow(owners)
     kg_owners = (np.empty((n, m_all)), np.empty((n, m_all)))
     pht, kg = borrow(kg_owners)
-    for k in range(n_pairs):
+    for k in range(lo, hi):
         m = _active_rows(rows, k, idx)
         if m == 0:
             nis[k] = np.nan
@@ -311,13 +358,26 @@ def update_one(x, p, h, z, r, m, pht, kg, s_mat, si, work, y):  # pragma: no cov
 def innovation_nis(x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
     r"""NIS :math:`y^\top (H P H^\top + R)^{-1} y` of each pair's active rows, without
     updating (all :data:`~acc_fusion.core.motion.MEAS_DIM` rows: unrolled, as :func:`update`)."""
+    _nis_range(0, x.shape[0], x, p, z, r, h, rows, nis)
+
+
+@njit(cache=True, parallel=True)
+def innovation_nis_parallel(x, p, z, r, h, rows, nis, chunks):  # pragma: no cover - compiled
+    """:func:`innovation_nis` on the cores, the pairs in ``chunks`` blocks."""
+    n = x.shape[0]
+    for c in prange(chunks):
+        _nis_range(c * n // chunks, (c + 1) * n // chunks, x, p, z, r, h, rows, nis)
+
+
+@njit(cache=True)
+def _nis_range(lo, hi, x, p, z, r, h, rows, nis):  # pragma: no cover - compiled
+    """:func:`innovation_nis` of the pairs ``lo`` to ``hi``, with work arrays of its own."""
     x, p, z, r, h, rows, nis = borrow((x, p, z, r, h, rows, nis))
-    n_pairs = x.shape[0]
     m_all = h.shape[0]
     full = m_all == MEAS_DIM
     owners = _row_scratch(m_all)
     idx, hs, zs, rs, s_mat, si, work, y = borrow(owners)
-    for k in range(n_pairs):
+    for k in range(lo, hi):
         m = _active_rows(rows, k, idx)
         if m == 0:
             nis[k] = np.nan

@@ -4,16 +4,13 @@ master filter fusing them, information sharing β and the reset modes (hu2005; k
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.motion import (
     STATE_DIM,
 )
-from acc_fusion.filters.kalman import (
-    input_args,
-)
+from acc_fusion.filters.kalman import input_args, parallel_chunks
 from acc_fusion.fusion.base import Estimator
 from acc_fusion.fusion.fdi import WindowedChiSquare
 from acc_fusion.fusion.kernels import (
@@ -27,12 +24,6 @@ from acc_fusion.fusion.kernels import (
     jump_start,
     jump_vectors,
 )
-
-#: Pairs from which a step of the federated filter runs on all of numba's threads
-#: (:func:`~acc_fusion.fusion.kernels._federated_step_parallel`): below it the threads' start
-#: costs more than they save, and the 1-D pipeline, whose SUMO runs in a process of its own
-#: on the other core, keeps to one (its default 1 024 slots stay below).
-PARALLEL_PAIRS = 2048
 
 
 class FederatedFilter(Estimator):
@@ -302,8 +293,9 @@ class FederatedFilter(Estimator):
             self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
             self._coast_limit, self._nis, used,
         )  # fmt: skip
-        if self.n_pairs >= PARALLEL_PAIRS and numba.get_num_threads() > 1:
-            _federated_step_parallel(*args, 4 * numba.get_num_threads())
+        chunks = parallel_chunks(self.n_pairs)
+        if chunks:
+            _federated_step_parallel(*args, chunks)
         else:
             _federated_step(*args)
         self._infl = None
