@@ -250,7 +250,7 @@ class Estimator(PairState, ABC):
         """
         n = self.n_pairs
         init, consumed = np.empty(n, dtype=bool), np.zeros_like(valid)
-        x0, p0 = np.zeros((n, STATE_DIM)), np.zeros((n, STATE_DIM, STATE_DIM))
+        x0, p0 = np.empty((n, STATE_DIM)), np.empty((n, STATE_DIM, STATE_DIM))
         var = self.config.filter.init_accel_std**2
         if not _first_reports(self.initialised, z, r, valid, var, init, x0, p0, consumed):
             return init, None, None, consumed

@@ -52,8 +52,9 @@ def _gather(z_in, r_in, valid_in, z, r, valid):  # pragma: no cover - compiled
 def _first_reports(initialised, z, r, valid, accel_var, init, x0, p0, consumed):  # pragma: no cover
     """:meth:`~acc_fusion.fusion.base.Estimator._initial` of every pair, in place: ``init (N,)``
     the uninitialised pairs with a report, ``x0 (N, n)``, ``p0 (N, n, n)`` their first
-    reporting sensor's measurement and covariance, the acceleration's variance ``accel_var``
-    (rows not starting are left as they are), ``consumed (S, N)`` that sensor's report.
+    reporting sensor's measurement and covariance, the acceleration's variance ``accel_var``,
+    zero elsewhere (rows not starting are left as they are), ``consumed (S, N)`` that
+    sensor's report.
     Returns whether any pair starts."""
     any_init = False
     for k in range(valid.shape[1]):
@@ -68,6 +69,7 @@ def _first_reports(initialised, z, r, valid, accel_var, init, x0, p0, consumed):
             continue
         any_init = True
         consumed[first, k] = True
+        x0[k], p0[k] = 0.0, 0.0
         for i in range(MEAS_DIM):
             x0[k, i] = z[first, k, i]
             for j in range(MEAS_DIM):

@@ -303,9 +303,10 @@ class FCWMetrics(PairState):
     def _count_causes(self, ended: np.ndarray) -> None:
         """Count the warnings that ended with each class (``ended``: (classes, N) masks) under
         the cause recorded at their onset."""
+        causes = self._by_cause.shape[1]
         for k, mask in enumerate(ended):
             known = mask & (self._warn_cause >= 0)
-            np.add.at(self._by_cause[k], self._warn_cause[known], 1)
+            self._by_cause[k] += np.bincount(self._warn_cause[known], minlength=causes)
 
     def _check(self, system, oracle, ttc, speed, active, collided, relevant) -> None:
         """Raise the error of the first bad input of :meth:`update`."""
