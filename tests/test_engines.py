@@ -13,6 +13,7 @@ from acc_fusion.core.motion import (
     ca_process_noise,
     ca_transition,
 )
+from acc_fusion.core.threads import blocks
 from acc_fusion.filters import kalman
 from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
@@ -156,7 +157,7 @@ def test_the_parallel_kalman_kernels_equal_the_serial_ones_bit_for_bit():
     measurement row, pairs with none)."""
     rng = np.random.default_rng(3)
     n = kalman.PARALLEL_PAIRS + 37
-    assert kalman.parallel_chunks(n) > 1
+    assert blocks(n, kalman.PARALLEL_PAIRS) > 1
     f, q, h = ca_transition(0.05), ca_process_noise(0.05, 2.0), MEASUREMENT_MATRIX
     x0 = rng.normal(0.0, 10.0, (n, STATE_DIM))
     a = rng.normal(size=(n, STATE_DIM, STATE_DIM))
@@ -167,7 +168,7 @@ def test_the_parallel_kalman_kernels_equal_the_serial_ones_bit_for_bit():
     mask, q_scale, u = rng.random(n) < 0.9, rng.uniform(0.5, 2.0, n), rng.normal(size=n)
     b = np.array([0.0, -0.05, 0.0])
     results = []
-    for chunks in (kalman.parallel_chunks(n), 0):
+    for chunks in (blocks(n, kalman.PARALLEL_PAIRS), 0):
         x, p = x0.copy(), p0.copy()
         nis, prior = np.empty(n), np.empty(n)
         if chunks:

@@ -241,6 +241,21 @@ def test_ray_gives_the_same_rows_as_local(small, tmp_path):
     pd.testing.assert_frame_equal(ray_result.rows, local.rows)
 
 
+def test_a_ray_task_runs_its_chunk_on_one_numba_thread(monkeypatch):
+    """A Ray task has one CPU: its chunk's parallel kernels must not spread over the cores
+    the other tasks run on (the local pool's workers are set so by their initializer)."""
+    import numba
+
+    from acc_fusion.sweep import executors
+
+    monkeypatch.setattr(executors, "run_chunk", lambda chunk: numba.get_num_threads())
+    threads = numba.get_num_threads()
+    try:
+        assert executors.run_chunk_alone(None) == 1
+    finally:
+        numba.set_num_threads(threads)
+
+
 def test_unreachable_ray_address_fails_fast(tmp_path, capsys):
     pytest.importorskip("ray")
     port = free_port()  # nothing listens there

@@ -457,15 +457,13 @@ def test_the_parallel_kernels_equal_the_serial_ones_bit_for_bit(monkeypatch):
     filter, run on numba's threads; their tracks, ids, fused objects and estimates are the
     serial kernels' exactly."""
     import acc_fusion.filters.kalman as kalman
-    import acc_fusion.fusion.tracking.association as association
     import acc_fusion.fusion.tracking.tracker as tracker
 
     scene = _many_egos(80, np.random.default_rng(5))
     assert scene.n_egos >= tracker.PARALLEL_EGOS
     assert scene.n_egos * 2 * TrackerConfig().max_tracks >= kalman.PARALLEL_PAIRS
     parallel = _chain(scene, seed=9)
-    for module, name in ((tracker, "PARALLEL_EGOS"), (association, "PARALLEL_EGOS"),
-                         (kalman, "PARALLEL_PAIRS")):  # fmt: skip
+    for module, name in ((tracker, "PARALLEL_EGOS"), (kalman, "PARALLEL_PAIRS")):
         monkeypatch.setattr(module, name, 10**9)
     serial = _chain(scene, seed=9)
     assert len(parallel) == len(serial)

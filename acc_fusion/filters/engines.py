@@ -25,6 +25,7 @@ from filterpy.kalman import KalmanFilter
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.motion import STATE_DIM
 from acc_fusion.core.slots import PairState
+from acc_fusion.core.threads import blocks
 from acc_fusion.core.validation import check_choice
 from acc_fusion.filters import kalman
 
@@ -118,13 +119,13 @@ class BatchedBank(FilterBank):
             _per_filter(mask, (k, n), bool),
             *kalman.input_args(b, u),
         )
-        chunks = kalman.parallel_chunks(k * n)
+        chunks = blocks(k * n, kalman.PARALLEL_PAIRS)
         kalman.predict_parallel(*args, chunks) if chunks else kalman.predict(*args)
 
     def update(self, j, z, r, h, rows):
         nis = np.empty(self.n_pairs)
         args = (self._x[j], self._p[j], *_measurement_args(z, r, h, rows), nis)
-        chunks = kalman.parallel_chunks(self.n_pairs)
+        chunks = blocks(self.n_pairs, kalman.PARALLEL_PAIRS)
         kalman.update_parallel(*args, chunks) if chunks else kalman.update(*args)
         return nis
 
@@ -256,7 +257,7 @@ class Engine:
         if self.name == "batched":
             args = (np.ascontiguousarray(x), np.ascontiguousarray(p),
                     *_measurement_args(z, r, h, rows), out)  # fmt: skip
-            chunks = kalman.parallel_chunks(x.shape[0])
+            chunks = blocks(x.shape[0], kalman.PARALLEL_PAIRS)
             if chunks:
                 kalman.innovation_nis_parallel(*args, chunks)
             else:

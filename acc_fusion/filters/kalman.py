@@ -33,7 +33,6 @@ active row gets a NIS of NaN.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numba import njit, prange
 
@@ -46,13 +45,6 @@ from acc_fusion.core.motion import MEAS_DIM, STATE_DIM
 #: runs in a process of its own on the other core, keeps to one (its default 1 024 slots stay
 #: below).
 PARALLEL_PAIRS = 2048
-
-
-def parallel_chunks(n_pairs: int) -> int:
-    """The blocks (four a thread) in which a batched kernel runs ``n_pairs`` pairs on the
-    cores, or 0: serially (below :data:`PARALLEL_PAIRS`, or with one numba thread)."""
-    threads = numba.get_num_threads()
-    return 4 * threads if n_pairs >= PARALLEL_PAIRS and threads > 1 else 0
 
 
 @njit(cache=True)

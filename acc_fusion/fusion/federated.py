@@ -10,7 +10,9 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.motion import (
     STATE_DIM,
 )
-from acc_fusion.filters.kalman import input_args, parallel_chunks
+from acc_fusion.core.threads import blocks
+from acc_fusion.filters import kalman
+from acc_fusion.filters.kalman import input_args
 from acc_fusion.fusion.base import Estimator
 from acc_fusion.fusion.fdi import WindowedChiSquare
 from acc_fusion.fusion.kernels import (
@@ -293,7 +295,7 @@ class FederatedFilter(Estimator):
             self._k % self.config.fusion_period == 0, fc.init_accel_std**2, self._t,
             self._coast_limit, self._nis, used,
         )  # fmt: skip
-        chunks = parallel_chunks(self.n_pairs)
+        chunks = blocks(self.n_pairs, kalman.PARALLEL_PAIRS)
         if chunks:
             _federated_step_parallel(*args, chunks)
         else:

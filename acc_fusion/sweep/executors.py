@@ -60,6 +60,13 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
+def run_chunk_alone(chunk: Chunk) -> dict:
+    """:func:`~acc_fusion.sweep.chunks.run_chunk` in a worker given one core (a Ray task of
+    ``num_cpus=1``): on one numba thread, as the local pool's workers."""
+    numba.set_num_threads(1)
+    return run_chunk(chunk)
+
+
 def local_executor(workers: int = 2) -> Executor:
     """A pool of ``workers`` processes (spawned); SUMO chunks get a fresh process each."""
 
@@ -162,8 +169,8 @@ def ray_executor(workers: int = 2, address: str | None = None) -> Executor:
                 raise AccFusionError(f"cannot start Ray ({reason})") from None
 
         try:
-            task = ray.remote(num_cpus=1)(run_chunk)
-            sumo_task = ray.remote(num_cpus=1, max_calls=1)(run_chunk)
+            task = ray.remote(num_cpus=1)(run_chunk_alone)
+            sumo_task = ray.remote(num_cpus=1, max_calls=1)(run_chunk_alone)
             refs = {(sumo_task if c.point.source == "sumo" else task).remote(c): c for c in chunks}
             while refs:
                 done, _ = ray.wait(list(refs), num_returns=1)

@@ -50,7 +50,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
-import numba
 import numpy as np
 from numba import njit, prange
 
@@ -58,11 +57,13 @@ from acc_fusion.core.borrow import borrow, keep_alive
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import MEAS_DIM
 from acc_fusion.core.slots import PairState, pair_mask
+from acc_fusion.core.threads import blocks
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse
+from acc_fusion.fusion.tracking import tracker
 from acc_fusion.fusion.tracking.assignment import gnn, scratch_arrays
 from acc_fusion.fusion.tracking.kernels import UNNUMBERED, converted, number_new
-from acc_fusion.fusion.tracking.tracker import PARALLEL_EGOS, GateConfig, Tracks
+from acc_fusion.fusion.tracking.tracker import GateConfig, Tracks
 from acc_fusion.sensors.detections import CLUTTER, GHOST, Detections
 from acc_fusion.sensors.sensor import Measurement
 
@@ -158,10 +159,8 @@ class TrackAssociator(PairState):
             self.config.gate_value, self._valid, self._object_id, self._pair, self._next_id,
             track, lateral, lateral_cov,
         )  # fmt: skip
-        if self.n_egos >= PARALLEL_EGOS and numba.get_num_threads() > 1:
-            _associate_parallel(*args, min(self.n_egos, 4 * numba.get_num_threads()))
-        else:
-            _associate(*args)
+        chunks = blocks(self.n_egos, tracker.PARALLEL_EGOS)
+        _associate_parallel(*args, chunks) if chunks else _associate(*args)
         return FusedObjects(
             a.t, (a.sensor, b.sensor), self._valid.copy(), self._object_id.copy(), track,
             lateral, lateral_cov,

@@ -99,11 +99,11 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-import numba
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
+from acc_fusion.core.threads import blocks
 from acc_fusion.core.validation import check_array, check_range
 from acc_fusion.fusion.tracking.kernels import DIM, track_step, track_step_parallel
 from acc_fusion.sensors.detections import Detections
@@ -229,6 +229,8 @@ class Tracks:
 #: A10KW's egos at 250 s (about 20 tracks each), the threads saved nothing at 16 egos and a
 #: third of the time at 64 (a throwaway probe, 2026-11-27); the association uses it too.
 PARALLEL_EGOS = 64
+
+
 #: The integer per-track arrays of a :class:`Tracker`, in the order of its ``_int`` rows.
 _INTS = ("track_id", "detection", "hits", "misses", "scans", "object_id")
 
@@ -325,10 +327,8 @@ class Tracker(PairState):
             np.ascontiguousarray(speed), np.ascontiguousarray(yaw), dt, self._params,
             self._next_id, widest,
         )  # fmt: skip
-        if e >= PARALLEL_EGOS and numba.get_num_threads() > 1:
-            track_step_parallel(*args, min(e, 4 * numba.get_num_threads()))
-        else:
-            track_step(*args)
+        chunks = blocks(e, PARALLEL_EGOS)
+        track_step_parallel(*args, chunks) if chunks else track_step(*args)
         return Tracks(
             t=float(det.t), sensor=self.sensor, valid=self._valid.copy(),
             confirmed=self._confirmed.copy(), track_id=i[0].copy(), state=self._x.copy(),
