@@ -66,6 +66,17 @@ def test_a_nan_position_of_a_used_slot_is_one_error_but_unused_slots_are_free():
     assert _frame(x=x).n_egos == 2
 
 
+def test_from_arrays_is_the_checked_frame_without_the_checks():
+    checked = _frame()
+    arrays = {name: getattr(checked, name) for name in ObjectFrame.__dataclass_fields__}
+    fast = ObjectFrame.from_arrays(arrays.pop("t"), **arrays)
+    for name in ObjectFrame.__dataclass_fields__:
+        assert getattr(fast, name) is getattr(checked, name)  # taken as they are, no copy
+    np.testing.assert_array_equal(fast.head(1).x, checked.x[:1])
+    with pytest.raises(InputError, match="needs exactly the fields"):
+        ObjectFrame.from_arrays(1.0, **{k: v for k, v in arrays.items() if k != "lead"})
+
+
 def _detections(**overrides):
     d = dict(
         t=0.0, sensor="radar", n_egos=3, online=True, ego=np.array([0, 0, 2]),

@@ -358,8 +358,8 @@ class SumoObjects:
               cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
               *out)  # fmt: skip
         floats, object_id, kinds, lane, lead = out
-        self._frame = ObjectFrame(
-            t=truth.t,
+        self._frame = ObjectFrame.from_arrays(
+            truth.t,
             ego_speed=ego_speed,
             ego_accel=truth.ego_accel[:n],
             ego_yaw_rate=self._yaw_rate(truth.t, heading, ego_id, has),
