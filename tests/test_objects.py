@@ -73,7 +73,7 @@ def test_from_arrays_is_the_checked_frame_without_the_checks():
     for name in ObjectFrame.__dataclass_fields__:
         assert getattr(fast, name) is getattr(checked, name)  # taken as they are, no copy
     np.testing.assert_array_equal(fast.head(1).x, checked.x[:1])
-    with pytest.raises(InputError, match="needs exactly the fields"):
+    with pytest.raises(InputError, match="ObjectFrame needs exactly the fields"):
         ObjectFrame.from_arrays(1.0, **{k: v for k, v in arrays.items() if k != "lead"})
 
 

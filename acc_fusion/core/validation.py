@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import fields
+from typing import TypeVar
 
 import numpy as np
 from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
+
+T = TypeVar("T")
 
 
 def check_range(
@@ -126,3 +130,17 @@ def check_interval(name: str, value: object, *, lo_open: bool) -> tuple[float, f
     low = check_range(f"{name}[0]", value[0], 0.0, math.inf, lo_open=lo_open, hi_open=True)
     high = check_range(f"{name}[1]", value[1], low, math.inf, hi_open=True)
     return low, high
+
+
+def unchecked(cls: type[T], values: dict[str, object]) -> T:
+    """An instance of the frozen dataclass ``cls`` holding ``values`` (one per field) as they
+    are, without its ``__post_init__`` checks: for the frames a source builds from its own
+    arrays at every step (``from_arrays`` of the frames); an
+    :class:`~acc_fusion.core.errors.InputError` if a field is missing or unknown."""
+    names = [f.name for f in fields(cls)]
+    if sorted(values) != sorted(names):
+        raise InputError(f"{cls.__name__} needs exactly the fields {', '.join(names)}")
+    obj = object.__new__(cls)
+    for name in names:
+        object.__setattr__(obj, name, values[name])
+    return obj

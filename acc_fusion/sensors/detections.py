@@ -8,7 +8,7 @@ operations whatever the number of egos (ragged rows: ``ego`` names the row).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -96,3 +96,7 @@ class Detections:
     def y(self) -> np.ndarray:
         """``(K,)`` lateral position in the ego frame [m], ``range * sin(azimuth)``."""
         return self.range * np.sin(self.azimuth)
+
+
+#: The fields of a :class:`Detections`, in order.
+DETECTION_FIELDS = tuple(f.name for f in fields(Detections))

@@ -23,8 +23,8 @@ from numba import njit
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
-from acc_fusion.core.validation import check_range
-from acc_fusion.sensors.detections import CLUTTER, Detections
+from acc_fusion.core.validation import check_range, unchecked
+from acc_fusion.sensors.detections import CLUTTER, DETECTION_FIELDS, Detections
 from acc_fusion.sensors.faults import Fault
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.objects import ObjectFrame
@@ -121,7 +121,8 @@ def emit(
     declared_std: np.ndarray,
 ) -> Detections:
     """The :class:`Detections` of ``returns`` measured as ``z (3, K)`` with the declared
-    standard deviations ``declared_std (3, K)``, sorted by ego (stable)."""
+    standard deviations ``declared_std (3, K)``, sorted by ego (stable): made of the sensor's
+    own arrays, without the constructor's checks (``z`` and ``declared_std`` finite)."""
     ego = returns.ego
     if ego.size and (ego.min() < 0 or ego.max() >= n_egos):
         raise InputError(f"{name}: the returns' egos must lie in [0, {n_egos})")
@@ -129,7 +130,8 @@ def emit(
         n_egos, ego, np.ascontiguousarray(z), np.ascontiguousarray(declared_std),
         returns.object_id, returns.origin,
     )  # fmt: skip
-    return Detections(t, name, n_egos, True, ego, *z, *std, object_id, origin)
+    values = (t, name, n_egos, True, ego, *z, *std, object_id, origin)
+    return unchecked(Detections, dict(zip(DETECTION_FIELDS, values, strict=True)))
 
 
 @njit(cache=True)

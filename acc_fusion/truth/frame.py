@@ -17,7 +17,7 @@ import numpy as np
 
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.motion import ca_transition
-from acc_fusion.core.validation import check_array
+from acc_fusion.core.validation import check_array, unchecked
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,6 @@ class TruthFrame:
         are (no copy; ``None``: no lateral offset).  For sources that build a frame at every
         step (the checks cost about as much as a SUMO step's reads); anything else uses the
         constructor."""
-        frame = object.__new__(cls)
         values = {
             "t": t,
             "ego_speed": ego_speed,
@@ -97,9 +96,7 @@ class TruthFrame:
                 np.zeros(leader_id.shape[0]) if lateral_offset is None else lateral_offset
             ),
         }
-        for name, value in values.items():
-            object.__setattr__(frame, name, value)
-        return frame
+        return unchecked(cls, values)
 
     @property
     def n_pairs(self) -> int:

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.errors import InputError
-from acc_fusion.core.validation import check_array
+from acc_fusion.core.validation import check_array, unchecked
 from acc_fusion.truth.frame import TruthFrame
 
 
@@ -189,14 +189,7 @@ class ObjectFrame:
         where used, taken as they are (no copy).  For sources that build a frame at every
         step (:class:`~acc_fusion.truth.sumo.objects.SumoObjects`: the checks cost a tenth of
         its frame); anything else uses the constructor."""
-        names = [f.name for f in fields(cls) if f.name != "t"]
-        if sorted(arrays) != sorted(names):
-            raise InputError(f"from_arrays needs exactly the fields {', '.join(names)}")
-        frame = object.__new__(cls)
-        object.__setattr__(frame, "t", t)
-        for name in names:
-            object.__setattr__(frame, name, arrays[name])
-        return frame
+        return unchecked(cls, {"t": t, **arrays})
 
     @property
     def n_egos(self) -> int:
