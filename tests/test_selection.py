@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.warning.selection import InPathSelector, SelectionConfig
 
 
@@ -74,3 +74,12 @@ def test_bad_selection_settings_are_one_error():
         SelectionConfig(path="gps")
     with pytest.raises(ConfigError, match="selection.half_width"):
         SelectionConfig(half_width=0.0)
+
+
+def test_inputs_of_the_wrong_shape_are_one_error_and_scalars_broadcast():
+    sel = InPathSelector(SelectionConfig(stationary="all"), 1, 2)
+    ids, x = np.array([[0, 1]]), np.array([[40.0, 60.0]])
+    args = (np.array([25.0]), np.array([0.0]), np.array([0.0]))
+    assert sel.step(ids, x, 0.0, 20.0, True, *args)[0] == 0  # one value for every slot
+    with pytest.raises(InputError, match=r"y must have shape \(1, 2\), got \(3,\)"):
+        sel.step(ids, x, np.zeros(3), 20.0, True, *args)

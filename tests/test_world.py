@@ -8,7 +8,7 @@ import pytest
 
 from acc_fusion.cli.world import parse_conditions
 from acc_fusion.core.config import from_mapping
-from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.metrics.summary import CAUSES
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import alert_cause, simulate_world
@@ -43,6 +43,13 @@ def _frame():
 )  # fmt: skip
 def test_the_cause_is_what_the_selected_object_is_in_truth(truth_id, cause):
     assert CAUSES[alert_cause(_frame(), np.array([truth_id]))[0]] == cause
+
+
+def test_the_cause_takes_one_id_for_every_ego_or_is_one_error():
+    frame = _frame()
+    assert CAUSES[alert_cause(frame, 10)[0]] == "lead"  # a scalar for every ego
+    with pytest.raises(InputError, match="truth_id must have shape"):
+        alert_cause(frame, np.array([10, 11, 12]))
 
 
 def test_a_lead_that_has_just_cut_in_is_a_cut_in_not_the_lead():

@@ -61,6 +61,18 @@ def check_mask(name: str, value: object, n: int) -> np.ndarray:
     return arr
 
 
+def broadcast(name: str, value: object, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """``value`` as an array of ``dtype`` broadcast to ``shape`` (itself when it already is
+    one, else a read-only view), or a one-sentence
+    :class:`~acc_fusion.core.errors.InputError` naming ``name``."""
+    if isinstance(value, np.ndarray) and value.shape == shape and value.dtype == dtype:
+        return value
+    try:
+        return np.broadcast_to(np.asarray(value, dtype=dtype), shape)
+    except ValueError:
+        raise InputError(f"{name} must have shape {shape}, got {np.shape(value)}") from None
+
+
 def check_array(
     name: str,
     value: object,

@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
+from acc_fusion.core.validation import broadcast
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
 from acc_fusion.fusion.estimators import make_estimator
@@ -88,7 +89,8 @@ def alert_cause(
     if not frame.max_objects:  # no object ahead of any ego: whatever is selected is a ghost
         return np.full(n, CAUSES.index("ghost"), dtype=np.int64)
     lead_id = frame.lead_frame().leader_id if lead_id is None else lead_id
-    ids = [np.broadcast_to(np.asarray(a, dtype=np.int64), (n,)) for a in (truth_id, lead_id)]
+    ids = (broadcast("truth_id", truth_id, (n,), np.int64),
+           broadcast("lead_id", lead_id, (n,), np.int64))  # fmt: skip
     out = np.empty(n, dtype=np.int64)
     _cause(frame.valid, frame.object_id, frame.kind, frame.lateral_speed, *ids, out)
     return out

@@ -60,7 +60,7 @@ from numba import njit
 
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.slots import PairState
-from acc_fusion.core.validation import check_choice, check_range
+from acc_fusion.core.validation import broadcast, check_choice, check_range
 
 #: Path models (see the module docstring).
 PATHS = ("straight", "yaw_rate", "lane")
@@ -167,11 +167,11 @@ class InPathSelector(PairState):
         if object_id.shape != self._ids.shape:
             raise InputError(f"object_id must have shape {self._ids.shape}, got {object_id.shape}")
         n, f = object_id.shape
-        grid = {name: _shaped(name, a, (n, f), t) for name, a, t in (
+        grid = {name: broadcast(name, a, (n, f), t) for name, a, t in (
             ("x", x, float), ("y", y, float), ("ground_speed", ground_speed, float),
             ("confirmed", confirmed, bool))}  # fmt: skip
         kappa = path_curvature(cfg, speed, yaw_rate, road_curvature)
-        self.curvature = _shaped("the path curvature", kappa, (n,), float)
+        self.curvature = broadcast("the path curvature", kappa, (n,), float)
         self.offset, self.in_path = np.empty((n, f)), np.empty((n, f), dtype=bool)
         self.selected = np.empty(n, dtype=np.int64)
         _select(
@@ -181,15 +181,6 @@ class InPathSelector(PairState):
             self.in_path, self.selected,
         )  # fmt: skip
         return self.selected
-
-
-def _shaped(name: str, a, shape: tuple[int, ...], dtype) -> np.ndarray:
-    """``a`` as an array of ``dtype`` broadcast to ``shape`` (a view), or a one-sentence
-    error naming it."""
-    try:
-        return np.broadcast_to(np.asarray(a, dtype=dtype), shape)
-    except ValueError:
-        raise InputError(f"{name} must have shape {shape}, got {np.shape(a)}") from None
 
 
 @njit(cache=True)
