@@ -429,9 +429,10 @@ def _many_egos(n_egos, rng):
     return Scene(objects, speed, yaw)
 
 
-def _chain(scene, seed, frames=30):
+def _chain(scene, seed, frames=30, copy=True):
     """Both trackers, the association and the federated filter over ``frames`` frames (with
-    clutter, misses and an infrared camera at half rate): every output of the last frame."""
+    clutter, misses and an infrared camera at half rate): every output of the last frame
+    (the trackers' and the filter's as copies or, ``copy`` false, views)."""
     rng = np.random.default_rng(seed)
     n = scene.n_egos
     cfg = TrackerConfig()
@@ -443,12 +444,25 @@ def _chain(scene, seed, frames=30):
         t = i * DT
         d_r = detect(scene, t, "radar", rng, p_detect=0.9, clutter=1)
         d_i = detect(scene, t, "infrared", rng, online=i % 2 == 0, p_detect=0.8)
-        t_r = radar.step(d_r, scene.speed, scene.yaw_rate, DT)
-        t_i = infrared.step(d_i, scene.speed, scene.yaw_rate, DT)
+        t_r = radar.step(d_r, scene.speed, scene.yaw_rate, DT, copy=copy)
+        t_i = infrared.step(d_i, scene.speed, scene.yaw_rate, DT, copy=copy)
         fused = assoc.step(t_r, t_i)
-        estimate = est.step(*fused_measurements(fused, (t_r, t_i), (d_r, d_i)))
+        estimate = est.step(*fused_measurements(fused, (t_r, t_i), (d_r, d_i)), copy=copy)
+    assert np.shares_memory(t_r.cov, radar._p) != copy  # a view exactly when asked
+    assert np.shares_memory(estimate.p, est.master.p) != copy
     return [*vars(t_r).values(), *vars(t_i).values(), *vars(fused).values(),
             *vars(estimate).values()]  # fmt: skip
+
+
+def test_views_of_the_trackers_and_the_filter_equal_their_copies():
+    """The 2-D pipeline reads the trackers' and the estimators' outputs within the step, as
+    views (``copy=False``): the same values as the copies."""
+    scene = _many_egos(6, np.random.default_rng(2))
+    for a, b in zip(_chain(scene, 4, 12), _chain(scene, 4, 12, copy=False), strict=True):
+        if isinstance(a, np.ndarray):
+            np.testing.assert_array_equal(a, b)
+        else:
+            assert a == b
 
 
 @pytest.mark.skipif(numba.get_num_threads() < 2, reason="numba has one thread: no parallel run")

@@ -155,8 +155,13 @@ class Estimator(PairState, ABC):
         measurements: Sequence[Measurement],
         target_id: np.ndarray,
         ego_accel: np.ndarray | None = None,
+        copy: bool = True,
     ) -> Estimate:
         """Advance every pair by one step with this step's measurements (one per sensor).
+
+        The :class:`Estimate`'s ``x``, ``p`` and ``nis`` are copies, or with ``copy`` false
+        views of the estimator's arrays, which its next step changes (for a caller that reads
+        them before: the 2-D pipeline).
 
         ``ego_accel (N,)`` is the ego's measured acceleration [m/s²] over the step this call
         predicts, from the previous measurements to these
@@ -184,14 +189,8 @@ class Estimator(PairState, ABC):
         used = self._advance(z, r, valid)
         self._last[used] = t
         x, p = self._state()
-        return Estimate(
-            t=t,
-            x=np.array(x),
-            p=np.array(p),
-            valid=self._reported(),
-            nis=self._nis.copy(),
-            isolated=self._isolated(),
-        )
+        x, p, nis = (np.array(a) for a in (x, p, self._nis)) if copy else (x, p, self._nis)
+        return Estimate(t=t, x=x, p=p, valid=self._reported(), nis=nis, isolated=self._isolated())
 
     def _check(self, measurements, target_id):
         n, s = self.n_pairs, self.n_sensors

@@ -241,7 +241,8 @@ class WorldPerception(PairState):
         yaw = frame.ego_yaw_rate + noise
         detections = [s.detect(frame, self.world.conditions) for s in self.sensors]
         tracks = [
-            tr.step(d, v_ego, yaw, dt) for tr, d in zip(self.trackers, detections, strict=True)
+            tr.step(d, v_ego, yaw, dt, copy=False)  # read within this step
+            for tr, d in zip(self.trackers, detections, strict=True)
         ]
         fused = self.associator.step(*tracks)
         freed = self.pool.update(fused.valid.reshape(-1))
@@ -257,7 +258,7 @@ class WorldPerception(PairState):
         faulty = {s.spec.name: s.faulty(frame.t) for s in self.sensors}
         estimates, truth_id, causes = {}, {}, {}
         for m, estimator in self.estimators.items():
-            est = estimator.step(measurements, target, u)
+            est = estimator.step(measurements, target, u, copy=False)
             estimates[m], truth_id[m] = self._select(
                 m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active
             )

@@ -302,13 +302,20 @@ class Tracker(PairState):
         self.n_egos = m
 
     def step(
-        self, detections: Detections, ego_speed: np.ndarray, ego_yaw_rate: np.ndarray, dt: float
+        self,
+        detections: Detections,
+        ego_speed: np.ndarray,
+        ego_yaw_rate: np.ndarray,
+        dt: float,
+        copy: bool = True,
     ) -> Tracks:
         """Advance every ego's tracks by ``dt`` seconds to ``detections.t`` and take the frame.
 
         ``ego_speed (E,)`` [m/s] and ``ego_yaw_rate (E,)`` [rad/s, left positive] are the ego's
         at the frame's time (the speed of the previous call is the step's start); call it at
-        every frame, also when the sensor is offline.
+        every frame, also when the sensor is offline.  The :class:`Tracks` are a copy, or with
+        ``copy`` false views of the tracker's arrays, which its next step changes (for a
+        caller that reads them before: the 2-D pipeline).
         """
         det = self._check(detections)
         e = self.n_egos
@@ -329,12 +336,12 @@ class Tracker(PairState):
         )  # fmt: skip
         chunks = blocks(e, PARALLEL_EGOS)
         track_step_parallel(*args, chunks) if chunks else track_step(*args)
-        return Tracks(
-            t=float(det.t), sensor=self.sensor, valid=self._valid.copy(),
-            confirmed=self._confirmed.copy(), track_id=i[0].copy(), state=self._x.copy(),
-            cov=self._p.copy(), detection=i[1].copy(), hits=i[2].copy(), misses=i[3].copy(),
-            age=self._age.copy(), object_id=i[5].copy(),
-        )  # fmt: skip
+        arrays = {"valid": self._valid, "confirmed": self._confirmed, "track_id": i[0],
+                  "state": self._x, "cov": self._p, "detection": i[1], "hits": i[2],
+                  "misses": i[3], "age": self._age, "object_id": i[5]}  # fmt: skip
+        if copy:
+            arrays = {name: a.copy() for name, a in arrays.items()}
+        return Tracks(t=float(det.t), sensor=self.sensor, **arrays)
 
     def _check(self, detections: Detections) -> Detections:
         if not isinstance(detections, Detections):
