@@ -281,18 +281,14 @@ class WorldPerception(PairState):
         sel = self.selectors[method].step(
             ids, x, fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
         )
-        has = (sel >= 0) & active
-        rows = np.arange(n)
-        k = np.where(has, sel, 0)
-        flat = np.maximum(pair[rows, k], 0)
-        selected = Estimate(est.t, est.x[flat], est.p[flat], has, est.nis[flat], est.isolated[flat])
-        radar_track, camera_track = fused.track[rows, k, 0], fused.track[rows, k, 1]
-        truth = np.where(
-            radar_track >= 0,
-            tracks[0].object_id[rows, np.maximum(radar_track, 0)],
-            tracks[1].object_id[rows, np.maximum(camera_track, 0)],
-        )
-        return selected, np.where(has, truth, -1)
+        has = np.empty(n, dtype=bool)
+        x_sel, p_sel = np.empty((n, *est.x.shape[1:])), np.empty((n, *est.p.shape[1:]))
+        nis, isolated = np.empty((n, est.nis.shape[1])), np.empty((n, est.nis.shape[1]), bool)
+        truth = np.empty(n, np.int64)
+        _selected(sel, active, pair, est.x, est.p, est.nis, est.isolated, fused.track,
+                  tracks[0].object_id, tracks[1].object_id, has, x_sel, p_sel, nis, isolated,
+                  truth)  # fmt: skip
+        return Estimate(est.t, x_sel, p_sel, has, nis, isolated), truth
 
 
 @njit(cache=True)
@@ -317,6 +313,26 @@ def _slot_view(
             x[e, k] = x_est[q, 0]
             ground[e, k] = v_ego[e] + x_est[q, 1]
             confirmed[e, k] = classifying and track[e, k, 1] >= 0
+
+
+@njit(cache=True)
+def _selected(
+    sel, active, pair, x, p, nis, isolated, track, radar_id, camera_id, has, x_out, p_out,
+    nis_out, isolated_out, truth,
+):  # pragma: no cover - compiled  # fmt: skip
+    """The estimate of each ego's selected slot ``sel (E,)`` (-1: none) into the outputs
+    (``has`` where an active ego selected one; the other rows hold pair 0's, unused) and
+    its true id ``truth``: the radar track's object, else the camera track's (-1 where
+    nothing is selected)."""
+    for e in range(sel.size):
+        has[e] = sel[e] >= 0 and active[e]
+        k = sel[e] if has[e] else 0
+        q = max(pair[e, k], 0)
+        x_out[e], p_out[e] = x[q], p[q]
+        nis_out[e], isolated_out[e] = nis[q], isolated[q]
+        radar, camera = track[e, k, 0], track[e, k, 1]
+        seen = radar_id[e, max(radar, 0)] if radar >= 0 else camera_id[e, max(camera, 0)]
+        truth[e] = seen if has[e] else -1
 
 
 def simulate_world(
