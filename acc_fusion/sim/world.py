@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.borrow import borrow
 from acc_fusion.core.slots import Extent, PairPool, PairState, resize_all
 from acc_fusion.core.validation import broadcast
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
@@ -324,12 +325,22 @@ def _selected(
     (``has`` where an active ego selected one; the other rows hold pair 0's, unused) and
     its true id ``truth``: the radar track's object, else the camera track's (-1 where
     nothing is selected)."""
+    sel, active, pair, x, p, nis, isolated, track, radar_id, camera_id = borrow(
+        (sel, active, pair, x, p, nis, isolated, track, radar_id, camera_id)
+    )
+    has, x_out, p_out, nis_out, isolated_out, truth = borrow(
+        (has, x_out, p_out, nis_out, isolated_out, truth)
+    )
     for e in range(sel.size):
         has[e] = sel[e] >= 0 and active[e]
         k = sel[e] if has[e] else 0
         q = max(pair[e, k], 0)
-        x_out[e], p_out[e] = x[q], p[q]
-        nis_out[e], isolated_out[e] = nis[q], isolated[q]
+        for i in range(x.shape[1]):
+            x_out[e, i] = x[q, i]
+            for j in range(x.shape[1]):
+                p_out[e, i, j] = p[q, i, j]
+        for s in range(nis.shape[1]):
+            nis_out[e, s], isolated_out[e, s] = nis[q, s], isolated[q, s]
         radar, camera = track[e, k, 0], track[e, k, 1]
         seen = radar_id[e, max(radar, 0)] if radar >= 0 else camera_id[e, max(camera, 0)]
         truth[e] = seen if has[e] else -1
