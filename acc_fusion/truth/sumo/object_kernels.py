@@ -91,8 +91,9 @@ def _fill(
     ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width, cos_h, sin_h,
     okind, oid, oedge, olane, props, out, out_id, out_kind, out_lane, lead,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """Write the hits of :func:`_search` into the outputs (:func:`_outputs`), and ``lead``:
-    the slot of the vehicle whose id is ``lead_id``."""
+    """Write the hits of :func:`_search` into the outputs (:func:`_outputs`, uninitialised),
+    the slots after each ego's hits empty (NaN, id -1, kind 0, off-road), and ``lead``: the
+    slot of the vehicle whose id is ``lead_id`` (-1: none)."""
     ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width = borrow(
         (ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width)
     )
@@ -103,6 +104,11 @@ def _fill(
     h = 0
     for e in range(ego.shape[0]):
         i = ego[e]
+        lead[e] = -1
+        for k in range(counts[e], out_id.shape[1]):
+            for r in range(out.shape[0]):
+                out[r, e, k] = np.nan
+            out_id[e, k], out_kind[e, k], out_lane[e, k] = -1, 0, _OFF_ROAD
         for k in range(counts[e]):
             j = hit_j[h]
             _put(e, k, j, hit_x[h], hit_y[h], cos_h[i], sin_h[i], ego_speed[e], cos_h, sin_h,

@@ -91,7 +91,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.validation import check_range
-from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind
+from acc_fusion.truth.objects import ObjectFrame, ObjectKind
 from acc_fusion.truth.sumo.object_kernels import _fill, _grid, _search
 from acc_fusion.truth.sumo.reading import raw_function
 from acc_fusion.truth.sumo.roadside import (
@@ -417,7 +417,7 @@ _ROW_GETTERS = ("getAngle", "getSpeed", "getAcceleration", "getLanePosition")
 _GETTERS = ("getIDList", "getPosition", "getRoadID", "getLaneIndex", *_ROW_GETTERS)
 #: ``_info`` entry of a vehicle the source does not know.
 _NO_INFO = (-1, False, False)
-_VEHICLE, _OFF_ROAD = int(ObjectKind.VEHICLE), int(OFF_ROAD)
+_VEHICLE = int(ObjectKind.VEHICLE)
 
 
 #: The float fields of an :class:`ObjectFrame`, in the order of :func:`_fill`'s output.
@@ -426,13 +426,13 @@ _FIELDS = ("x", "y", "elevation", "vx", "vy", "speed", "accel", "heading", "leng
 
 
 def _outputs(n: int, m: int) -> tuple[np.ndarray, ...]:
-    """Empty outputs of :func:`_fill` for ``n`` egos and ``m`` object slots: the float
-    fields of :data:`_FIELDS` (NaN), object ids (-1), kinds, relative lanes (off-road) and
-    lead slots (-1)."""
+    """The outputs of :func:`_fill` for ``n`` egos and ``m`` object slots, uninitialised
+    (it writes every entry): the float fields of :data:`_FIELDS`, object ids, kinds,
+    relative lanes and lead slots."""
     return (
-        np.full((len(_FIELDS), n, m), np.nan),
-        np.full((n, m), -1, dtype=np.int64),
-        np.zeros((n, m), dtype=np.int8),
-        np.full((n, m), _OFF_ROAD, dtype=np.int64),
-        np.full(n, -1, dtype=np.int64),
+        np.empty((len(_FIELDS), n, m)),
+        np.empty((n, m), dtype=np.int64),
+        np.empty((n, m), dtype=np.int8),
+        np.empty((n, m), dtype=np.int64),
+        np.empty(n, dtype=np.int64),
     )
