@@ -330,6 +330,11 @@ def test_emit_sorts_the_returns_by_ego_keeping_their_order_within_an_ego():
     np.testing.assert_array_equal(d.object_id, np.array(order) + 7)
     with pytest.raises(InputError, match=r"egos must lie in \[0, 2\)"):
         emit(0.5, "radar", 2, returns, returns.z, returns.z)
+    with pytest.raises(InputError, match=r"must have shape \(3, 6\), got \(3, 6\), \(3, 1\)"):
+        emit(0.5, "radar", 3, returns, returns.z, np.ones((3, 1)))
+    short = Returns(ego, returns.z, np.arange(3), returns.origin)
+    with pytest.raises(InputError, match=r"object_id and origin must have shape \(6,\)"):
+        emit(0.5, "radar", 3, short, returns.z, returns.z)
 
 
 def test_unused_slots_and_empty_frames_give_no_detections():

@@ -206,15 +206,31 @@ def test_the_frame_of_a_prefix_of_slots_is_the_head_of_the_whole_frame():
             assert head.n_egos == k and b.frame(k) is head
             again = b.frame(top)  # asked again in the step, for fewer slots: a view
             assert again.n_egos == top and np.shares_memory(again.x, head.x) == (top > 0)
-            cut = full.head(k)
+            if int(src.t) % 5 == 0:  # and for more: made anew, the same as the whole's
+                head = b.frame(k + 7)
+            cut = full.head(head.n_egos)
             for name in ObjectFrame.__dataclass_fields__:
                 assert np.array_equal(getattr(cut, name), getattr(head, name), equal_nan=True)
+            empty = ~head.valid  # what a slot without an object holds
+            assert np.isnan(head.x[empty]).all() and np.isnan(head.rcs[empty]).all()
+            assert (head.object_id[empty] == -1).all() and (head.kind[empty] == 0).all()
+            assert (head.lane[empty] == OFF_ROAD).all()
+            assert (head.lead[~head.valid.any(axis=1)] == -1).all()
             turning += int(np.count_nonzero(head.ego_yaw_rate))
         assert len(prefixes) >= 3 and turning > 1000, (prefixes, turning)
         with pytest.raises(InputError, match="leaves out active slots"):
             b.frame(0)
         with pytest.raises(InputError, match="egos must be an integer"):
+            b.frame(True)
+        with pytest.raises(InputError, match="egos must be an integer"):
             b.frame(config.capacity + 1)
+
+
+def test_a_frame_before_any_vehicle_is_empty():
+    config = SumoConfig(str(bundled_nets()["ring"]), end=10, seed=2, capacity=8)
+    with SumoSource(config) as src:  # the ring's vehicles depart after its first step
+        frame = SumoObjects(src).frame()
+    assert frame.n_egos == 8 and frame.max_objects == 0 and (frame.lead == -1).all()
 
 
 def test_on_the_ring_curvature_and_yaw_rate_follow_the_circle():

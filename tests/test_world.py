@@ -163,3 +163,34 @@ def test_the_world_warning_retimes_for_a_braking_driver_as_the_1d_one_does():
     with_signal = simulate_world(cfg).summaries["federated"]
     without = simulate_world(off).summaries["federated"]
     assert with_signal.nuisance < without.nuisance
+
+
+def test_the_pipeline_reading_views_of_its_stages_equals_it_reading_copies(monkeypatch):
+    """The 2-D pipeline reads the trackers' and estimators' outputs as views of their arrays
+    (``copy=False``); forced to take copies it gives the same estimates and levels at every
+    step, so no stage reads a view after its producer's next step."""
+    from acc_fusion.fusion.base import Estimator
+    from acc_fusion.fusion.tracking.tracker import Tracker
+
+    cfg = SimConfig(runs=12, seed=4)
+    cfg = replace(cfg, world=replace(cfg.world, scene="cut_out"))
+
+    def trace():
+        steps = []
+
+        def hook(view):
+            steps.append([view.levels[m].copy() for m in cfg.methods]
+                         + [view.estimates[m].x.copy() for m in cfg.methods])  # fmt: skip
+
+        simulate_world(cfg, on_step=hook)
+        return steps
+
+    views = trace()
+    for cls in (Tracker, Estimator):
+        step = cls.step
+        monkeypatch.setattr(cls, "step", lambda *a, _s=step, **k: _s(*a, **{**k, "copy": True}))
+    copies = trace()
+    assert len(views) == len(copies) > 50
+    for a, b in zip(views, copies, strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)

@@ -24,7 +24,7 @@ from typing import ClassVar
 import numpy as np
 from numba import njit
 
-from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.errors import ConfigError, InputError
 
 #: Slots by which the prefix grows or shrinks (each resize copies every stage's state once).
 QUANTUM = 64
@@ -174,7 +174,7 @@ class PairPool:
         and taken again in this call is among them)."""
         live = np.asarray(live, dtype=bool)
         if live.ndim != 1 or live.size > self.pair_of.size:
-            raise ConfigError(f"live must be a mask of at most {self.pair_of.size} keys")
+            raise InputError(f"live must be a mask of at most {self.pair_of.size} keys")
         if np.count_nonzero(live) > self.key_of.size:
             raise ConfigError(f"the pool of {self.key_of.size} pairs is full")
         freed = np.zeros(self.key_of.size, dtype=bool)

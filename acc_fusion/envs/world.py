@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
@@ -65,7 +66,8 @@ class _SeenPerception(WorldPerception):
     :class:`~acc_fusion.fusion.tracking.tracker.Tracks`."""
 
     def _select(self, method, est, fused, tracks, *rest):
-        self.seen = (self.per_slot(est), fused, tracks)
+        # the tracks are views of the trackers' arrays (WorldPerception.step): keep a copy
+        self.seen = (self.per_slot(est), fused, copy.deepcopy(tracks))
         return super()._select(method, est, fused, tracks, *rest)
 
 

@@ -123,13 +123,17 @@ def emit(
     """The :class:`Detections` of ``returns`` measured as ``z (3, K)`` with the declared
     standard deviations ``declared_std (3, K)``, sorted by ego (stable): made of the sensor's
     own arrays, without the constructor's checks (``z`` and ``declared_std`` finite)."""
-    ego = returns.ego
-    if ego.size and (ego.min() < 0 or ego.max() >= n_egos):
+    ego, k = returns.ego, returns.ego.size
+    z, std = np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(declared_std, dtype=float)
+    if z.shape != (3, k) or std.shape != (3, k):
+        raise InputError(
+            f"{name}: z and declared_std must have shape (3, {k}), got {z.shape}, {std.shape}"
+        )
+    if returns.object_id.shape != (k,) or returns.origin.shape != (k,):
+        raise InputError(f"{name}: the returns' object_id and origin must have shape ({k},)")
+    if k and (ego.min() < 0 or ego.max() >= n_egos):
         raise InputError(f"{name}: the returns' egos must lie in [0, {n_egos})")
-    ego, z, std, object_id, origin = _by_ego(
-        n_egos, ego, np.ascontiguousarray(z), np.ascontiguousarray(declared_std),
-        returns.object_id, returns.origin,
-    )  # fmt: skip
+    ego, z, std, object_id, origin = _by_ego(n_egos, ego, z, std, returns.object_id, returns.origin)
     values = (t, name, n_egos, True, ego, *z, *std, object_id, origin)
     return unchecked(Detections, dict(zip(DETECTION_FIELDS, values, strict=True)))
 

@@ -356,7 +356,8 @@ def simulate_world(
 ) -> SimResult:
     """Run the 2-D pipeline (settings ``config.world``) on its scene (``config.runs`` runs,
     one ego each), or on ``source`` (anything with ``frame()`` giving an :class:`ObjectFrame`,
-    ``advance()``, ``active``, ``collided``, ``t``, ``done`` and ``n_steps``): the loop of
+    ``advance()``, ``active``, ``collided``, ``t``, ``done`` and ``n_steps``; and, if it can
+    make the frame of its first ``k`` slots faster than the whole, ``head(k)``): the loop of
     :func:`~acc_fusion.sim.closed_loop.simulate` with :class:`WorldPerception` as its
     perception, so ``config.drive`` closes it (the driver hears that method's warnings and
     brakes, with a source that takes brake requests), ``on_step`` sees every step and

@@ -151,9 +151,10 @@ class ObjectFrame:
             object.__setattr__(self, "lateral_speed", np.zeros((e, m)))
         floats = []
         for name in _CHECKED_FLOATS:
-            value = np.ascontiguousarray(getattr(self, name), dtype=float)  # one array type
+            value = np.asarray(getattr(self, name), dtype=float)
             if value.shape != (e, m):
                 raise InputError(f"{name} must have shape {(e, m)}, got {value.shape}")
+            value = np.ascontiguousarray(value)  # one array type for the compiled check
             object.__setattr__(self, name, value)
             floats.append(value)
         bad = _first_non_finite(tuple(floats), valid)

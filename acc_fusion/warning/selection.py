@@ -109,7 +109,7 @@ def path_curvature(
     if config.path == "straight":
         return np.zeros_like(speed)
     if config.path == "lane":
-        return np.asarray(road_curvature, dtype=float)
+        return np.array(road_curvature, dtype=float)
     return np.where(speed >= config.min_speed, yaw_rate / np.maximum(speed, config.min_speed), 0.0)
 
 

@@ -303,13 +303,13 @@ class SumoObjects:
         return ids, state
 
     def frame(self, egos: int | None = None) -> ObjectFrame:
-        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step (the
-        same frame when asked again in the step).
+        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step.
 
         Args:
             egos: make the frame of the first ``egos`` slots only (``frame().head(egos)``
                 without the work on the others); they must include every active slot.
-                ``None``: every slot.
+                ``None``: every slot.  Asked again in the step for as many slots or fewer,
+                it gives (a view of) the same frame; for more, it makes the frame anew.
 
         Raises:
             InputError: ``egos`` is out of range or leaves out an active slot.
@@ -338,9 +338,8 @@ class SumoObjects:
         ego = np.fromiter(map(row_of.get, src.vehicle_ids[:n], repeat(-1)), np.int64, n)
         ego[~src.active[:n]] = -1
         has = ego >= 0
-        rows = np.where(has, ego, 0)
-        heading = np.where(has, obj["heading"][rows], 0.0)
-        ego_id = np.where(has, obj["object_id"][rows], -1)
+        heading, ego_id = np.zeros(n), np.full(n, -1, np.int64)
+        heading[has], ego_id[has] = obj["heading"][ego[has]], obj["object_id"][ego[has]]
         curvature, lane_width = self._ego_lane(ego, veh)
         keys, order = _grid(obj["x"], obj["y"])
         cos_h, sin_h = np.cos(obj["heading"]), np.sin(obj["heading"])
@@ -376,7 +375,7 @@ class SumoObjects:
     def _prefix(self, egos: int) -> int:
         """``egos`` checked as the length of a prefix of the slots holding every active one."""
         n, active = self._source.n_pairs, self._source.active
-        if not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
+        if isinstance(egos, bool) or not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
             raise InputError(f"egos must be an integer in [0, {n}], got {egos!r}")
         if active[egos:].any():
             raise InputError(f"egos = {egos} leaves out active slots; give at least "
