@@ -205,6 +205,7 @@ class SumoObjects:
              road.height, road.rcs, road.thermal_contrast, np.zeros(len(road))]
         )  # fmt: skip
         self._static: dict[str, tuple[float, float, float, float, float]] = {}
+        self._static_rows = np.full((5, 0), np.nan)  # the same by object id (_statics_of)
         self._room = 4096  # hits (ego, object) the search can hold, grown as needed
         n = source.n_pairs
         # Headings and vehicle ids of the slots, with their time: at the previous step and
@@ -228,6 +229,19 @@ class SumoObjects:
             found = (veh.getLength(vid), veh.getWidth(vid), veh.getHeight(vid), rcs, thermal)
             self._static[vid] = found
         return found
+
+    def _statics_of(self, ids: list[str], oid: np.ndarray) -> np.ndarray:
+        """``(5, n)`` :meth:`_statics` of the vehicles ``ids`` of object ids ``oid``, from a
+        table by object id (the ids only grow; a vehicle's row is filled at its first
+        frame)."""
+        table = self._static_rows
+        if oid.size and oid.max() >= table.shape[1]:  # room for the new ids
+            grown = np.full((5, 2 * int(oid.max()) + 64), np.nan)
+            grown[:, : table.shape[1]] = table
+            table = self._static_rows = grown
+        for i in np.flatnonzero(np.isnan(table[0, oid])).tolist():
+            table[:, oid[i]] = self._statics(ids[i])
+        return table[:, oid]
 
     def _read(self, ids: list[str]) -> tuple[np.ndarray, np.ndarray]:
         """Every vehicle's ``(6, n)`` position x, y, angle, speed, acceleration, lane position
@@ -284,7 +298,7 @@ class SumoObjects:
             self._static = {v: self._static[v] for v in ids if v in self._static}
         f, k = self._read(ids)
         heading = np.radians(90.0 - f[2])
-        statics = np.array(list(map(self._statics, ids)), dtype=float).reshape(n, 5).T
+        statics = self._statics_of(ids, oid)
         half = statics[0] / 2
         state = {
             "x": f[0] - half * np.cos(heading),
