@@ -204,8 +204,7 @@ class SumoObjects:
             [road.elevation, np.zeros(len(road)), np.zeros(len(road)), road.length, road.width,
              road.height, road.rcs, road.thermal_contrast, np.zeros(len(road))]
         )  # fmt: skip
-        self._static: dict[str, tuple[float, float, float, float, float]] = {}
-        self._static_rows = np.full((5, 0), np.nan)  # the same by object id (_statics_of)
+        self._static_rows = np.full((5, 0), np.nan)  # _statics by object id (_statics_of)
         self._room = 4096  # hits (ego, object) the search can hold, grown as needed
         n = source.n_pairs
         # Headings and vehicle ids of the slots, with their time: at the previous step and
@@ -218,17 +217,11 @@ class SumoObjects:
         self._lane_change = np.zeros((2, 0))
 
     def _statics(self, vid: str) -> tuple[float, float, float, float, float]:
-        """Length, width, height [m], rcs [dBsm] and thermal contrast [K] of a vehicle (read
-        once per vehicle)."""
-        found = self._static.get(vid)
-        if found is None:
-            veh = self._api.vehicle
-            rcs, thermal = VCLASS_SIGNATURE.get(
-                veh.getVehicleClass(vid), VCLASS_SIGNATURE["passenger"]
-            )
-            found = (veh.getLength(vid), veh.getWidth(vid), veh.getHeight(vid), rcs, thermal)
-            self._static[vid] = found
-        return found
+        """Length, width, height [m], rcs [dBsm] and thermal contrast [K] of a vehicle, from
+        SUMO (:meth:`_statics_of` reads them once per object id)."""
+        veh = self._api.vehicle
+        rcs, thermal = VCLASS_SIGNATURE.get(veh.getVehicleClass(vid), VCLASS_SIGNATURE["passenger"])
+        return veh.getLength(vid), veh.getWidth(vid), veh.getHeight(vid), rcs, thermal
 
     def _statics_of(self, ids: list[str], oid: np.ndarray) -> np.ndarray:
         """``(5, n)`` :meth:`_statics` of the vehicles ``ids`` of object ids ``oid``, from a
@@ -294,8 +287,6 @@ class SumoObjects:
         if np.any(oid < 0):  # not (or no longer) known to the source: not an object
             ids, oid = [v for v, i in zip(ids, oid.tolist(), strict=True) if i >= 0], oid[oid >= 0]
         n = len(ids)
-        if len(self._static) > 2 * n + 256:  # forget the vehicles that left
-            self._static = {v: self._static[v] for v in ids if v in self._static}
         f, k = self._read(ids)
         heading = np.radians(90.0 - f[2])
         statics = self._statics_of(ids, oid)
