@@ -3,7 +3,7 @@ r"""Benchmark: the cost of the 2-D world (object truth from SUMO) on SUMO's own 
 Runs ``<SUMO_HOME>/tools/game/A10KW.sumocfg`` (an OpenStreetMap motorway interchange scenario
 of SUMO's game, shipped in the eclipse-sumo wheel: 0.5 s steps, about 470 vehicles at 300 s,
 1794 edges) with the
-SUMO options of :func:`acc_fusion.truth.sumo.launch.sumo_command` and the same seed, four
+SUMO options of :func:`acc_fusion.truth.sumo.launch.sumo_command` and the same seed, five
 times, each in a fresh process (libsumo allows one simulation per process), one after the
 other:
 
@@ -14,25 +14,33 @@ other:
 * **objects**: the same source plus :meth:`acc_fusion.truth.sumo.objects.SumoObjects.frame`
   at every step (every vehicle, the roadside objects, the per-ego search and transform), for
   the prefix of slots that holds the egos, as the pipeline asks for it;
-* **pipeline**: :func:`acc_fusion.sim.world.simulate_world` on
-  :class:`~acc_fusion.truth.sumo.world.SumoWorld` — the objects, the 2-D radar and thermal
-  camera, a tracker per sensor, the track-to-track association, all four methods' estimators
-  on every associated object, in-path selection, warning, oracle and metrics — with the
-  default config (``world.*``, day), over the occupied prefix of the slots.
+* **inline**: :func:`acc_fusion.sim.world.simulate_world` on
+  :class:`~acc_fusion.truth.sumo.world.SumoWorld` of the in-process source — the objects,
+  the 2-D radar and thermal camera, a tracker per sensor, the track-to-track association,
+  all four methods' estimators on every associated object, in-path selection, warning,
+  oracle and metrics — with the default config (``world.*``, day), over the occupied prefix
+  of the slots;
+* **pipeline**: the same on a
+  :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` opened with ``objects``,
+  as ``acc-fusion sumo --world`` runs it (open loop): SUMO and the object frames in a
+  process of their own, ahead of the pipeline; the same frames bit for bit.
 
 Each run simulates the same ``--warmup`` seconds (30) untimed — the network fills, numba
-loads its compiled kernels (the pipeline runs ``simulate_world`` over the warm-up too, then
+loads its compiled kernels (the pipelines run ``simulate_world`` over the warm-up too, then
 afresh over the timed part) — then is timed from there to ``--end`` (300 s).  It prints each
 run's wall time and its ratio to bare, the egos per step and objects per ego (means over the
 timed steps), each run's resident memory (current and peak) at the start and the end of its
 timed part (memory must stay flat: a run may grow only as bare SUMO does, with the number of
-vehicles), the pipeline's time per stage (each stage's methods timed in its process:
-:data:`STAGES`), ``objects_ratio=<objects wall time / bare wall time>`` and as its last line
+vehicles), the pipelines' time per stage (each stage's methods timed in the pipeline's process:
+:data:`STAGES`; with SUMO in the background, ``sumo`` and ``objects`` are the waits for and
+copies of its frames), ``objects_ratio=<objects wall time / bare wall time>``,
+``inline_ratio=<inline wall time / bare wall time>`` and as its last line
 ``overhead_ratio=<pipeline wall time / bare wall time>``.
 
-Memory against traffic: the bare and pipeline runs also sample their resident memory and the
-number of vehicles (bare: SUMO's; pipeline: the equipped egos) every ``--sample`` simulated
-seconds (60) of the timed part, and fit :math:`\mathrm{RSS} = a + b\,n + c\,t` by least
+Memory against traffic: the bare and pipeline runs also sample their resident memory (the
+pipeline's: its process's and SUMO's, whose shared ring of frames counts twice, a constant)
+and the number of vehicles (bare: SUMO's; pipeline: the equipped egos) every ``--sample``
+simulated seconds (60) of the timed part, and fit :math:`\mathrm{RSS} = a + b\,n + c\,t` by least
 squares (:func:`memory_fit`).  The slope :math:`c` in MB per simulated hour, with its 95 %
 interval, is the growth that the traffic's size does not explain: a leak shows as a
 pipeline slope above bare SUMO's.
@@ -46,6 +54,7 @@ from __future__ import annotations
 import argparse
 import functools
 import importlib
+import math
 import multiprocessing
 import os
 import resource
@@ -70,8 +79,10 @@ def _object_stages(source) -> list[Callable[[], object]]:
 
 #: The pipeline's stages and the methods timed as each: (module, class or None, name).
 STAGES = {
-    "sumo": [("acc_fusion.truth.sumo.source", "SumoSource", "advance")],
-    "objects": [("acc_fusion.truth.sumo.objects", "SumoObjects", "frame")],
+    "sumo": [("acc_fusion.truth.sumo.source", "SumoSource", "advance"),
+             ("acc_fusion.truth.sumo.background", "BackgroundSumoSource", "advance")],
+    "objects": [("acc_fusion.truth.sumo.objects", "SumoObjects", "frame"),
+                ("acc_fusion.truth.sumo.background", "ReceivedObjects", "frame")],
     "sensors": [("acc_fusion.sensors.radar2d", "Radar2D", "detect"),
                 ("acc_fusion.sensors.infrared2d", "Infrared2D", "detect")],
     "trackers": [("acc_fusion.fusion.tracking.tracker", "Tracker", "step")],
@@ -138,11 +149,14 @@ def _staged(factory: Callable, config, end: float, warmup: float) -> dict:
             "rss_start": rss_start, "rss_end": rss_end}  # fmt: skip
 
 
-def _pipeline(config, end: float, warmup: float, every: float) -> dict:
-    """``simulate_world`` on the SUMO source over the warm-up, then afresh, timed, to the
-    end, with the time of every stage of :data:`STAGES`."""
+def _pipeline(config, end: float, warmup: float, every: float, background: bool = True) -> dict:
+    """``simulate_world`` on the SUMO source (in the ``background``, else in process) over
+    the warm-up, then afresh, timed, to the end, with the time of every stage of
+    :data:`STAGES`."""
     from acc_fusion.sim.closed_loop import SimConfig
     from acc_fusion.sim.world import simulate_world
+    from acc_fusion.truth.sumo.background import BackgroundSumoSource
+    from acc_fusion.truth.sumo.objects import ObjectFieldConfig
     from acc_fusion.truth.sumo.source import SumoSource
     from acc_fusion.truth.sumo.world import SumoWorld
 
@@ -162,9 +176,11 @@ def _pipeline(config, end: float, warmup: float, every: float) -> dict:
             super().advance()
             src = self.source
             if not self.samples or src.t >= self.samples[-1][0] + every - 1e-9:
-                self.samples.append((src.t, int(src.active.sum()), _rss_mb()[0]))
+                rss = _rss_mb()[0] + (_current_mb(src.pid) if background else 0.0)
+                self.samples.append((src.t, int(src.active.sum()), rss))
 
-    with SumoSource(config) as source:
+    opened = BackgroundSumoSource(config, ObjectFieldConfig()) if background else SumoSource(config)
+    with opened as source:
         sim = SimConfig(runs=1, dt=source.dt)
         simulate_world(sim, source=Until(source))
         spent = _time_stages()
@@ -177,14 +193,21 @@ def _pipeline(config, end: float, warmup: float, every: float) -> dict:
             "samples": Sampled.samples}  # fmt: skip
 
 
-def _rss_mb() -> tuple[float, float]:
-    """Current and peak resident memory of this process [MB] (Linux /proc for the current)."""
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+def _current_mb(pid: int | str = "self") -> float:
+    """Current resident memory of process ``pid`` [MB] (Linux /proc; NaN elsewhere)."""
     try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20, peak
+        with open(f"/proc/{pid}/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
     except OSError:
-        return peak, peak
+        return float("nan")
+
+
+def _rss_mb() -> tuple[float, float]:
+    """Current and peak resident memory of this process [MB] (the current from Linux /proc,
+    else the peak)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+    current = _current_mb()
+    return (peak if math.isnan(current) else current), peak
 
 
 def _run(
@@ -247,11 +270,12 @@ RUNS: dict[str, Callable[..., dict]] = {
     "bare": _bare,
     "source": functools.partial(_staged, lambda source: []),
     "objects": functools.partial(_staged, _object_stages),
+    "inline": functools.partial(_pipeline, background=False),
     "pipeline": _pipeline,
 }
 
 #: The runs that sample memory against the traffic.
-SAMPLED = ("bare", "pipeline")
+SAMPLED = ("bare", "inline", "pipeline")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -298,11 +322,13 @@ def main(argv: list[str] | None = None) -> None:
     obj, pipe = res["objects"], res["pipeline"]
     print(f"egos per step {obj['egos'] / obj['steps']:.1f}, "
           f"objects per ego {obj['objects'] / max(obj['egos'], 1):.1f}")  # fmt: skip
-    spent = pipe["stages"]
-    print("pipeline by stage (s, ms/step, share of the pipeline's wall time):")
-    for stage, sec in [*spent.items(), ("other", pipe["wall"] - sum(spent.values()))]:
-        print(f"  {stage:12s} {sec:7.2f} s  {1e3 * sec / pipe['steps']:6.2f} ms/step  "
-              f"{sec / pipe['wall']:6.1%}")  # fmt: skip
+    for name in ("inline", "pipeline"):
+        run = res[name]
+        spent = run["stages"]
+        print(f"{name} by stage (s, ms/step, share of its wall time):")
+        for stage, sec in [*spent.items(), ("other", run["wall"] - sum(spent.values()))]:
+            print(f"  {stage:12s} {sec:7.2f} s  {1e3 * sec / run['steps']:6.2f} ms/step  "
+                  f"{sec / run['wall']:6.1%}")  # fmt: skip
     print("memory against traffic: RSS = a + b·vehicles + c·t (least squares over the samples)")
     for name in SAMPLED:
         samples = res[name]["samples"]
@@ -312,6 +338,7 @@ def main(argv: list[str] | None = None) -> None:
               f"b {1e3 * b:.1f} kB/vehicle, c {c:+.1f} ± {half:.1f} MB/h")  # fmt: skip
     print(f"source_ratio={res['source']['wall'] / bare['wall']:.3f}")
     print(f"objects_ratio={obj['wall'] / bare['wall']:.3f}")
+    print(f"inline_ratio={res['inline']['wall'] / bare['wall']:.3f}")
     print(f"overhead_ratio={pipe['wall'] / bare['wall']:.3f}")
 
 

@@ -34,6 +34,7 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
     import libsumo
 
     from acc_fusion.truth.sumo import background as bg
+    from acc_fusion.truth.sumo import ring as ring_mod
     from acc_fusion.truth.sumo.config import SumoConfig
     from acc_fusion.truth.sumo.source import SumoSource
 
@@ -69,7 +70,7 @@ def _profile(sumocfg: str, end: float) -> tuple[float, dict[str, float]]:
         size = bg._ring_bytes(src.n_pairs)
         ring = bg._FrameRing(bg._FrameRing.create(size), size)
         snapshot = timed(bg._Snapshots(src.n_pairs, NoParent(ring, None, None)), "snapshot")
-        outbox = bg._Outbox(os.open(os.devnull, os.O_WRONLY), bg.OUTBOX_LIMIT)
+        outbox = ring_mod._Outbox(os.open(os.devnull, os.O_WRONLY), ring_mod.OUTBOX_LIMIT)
         put = timed(outbox.put, "message")
         put(snapshot(src, []))  # the first frame, as the child sends it: off the clock
         for key in spent:

@@ -30,9 +30,9 @@ from acc_fusion.core.levels import WARNING_COLORS  # noqa: E402
 from acc_fusion.core.slots import Extent  # noqa: E402
 from acc_fusion.sim.closed_loop import SimConfig, simulate  # noqa: E402
 from acc_fusion.truth.sumo import launch  # noqa: E402
-from acc_fusion.truth.sumo.background import BackgroundSumoSource, _Outbox  # noqa: E402
+from acc_fusion.truth.sumo.background import BackgroundSumoSource  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError, check_sumocfg  # noqa: E402
-from acc_fusion.truth.sumo.ring import COUNTERS  # noqa: E402
+from acc_fusion.truth.sumo.ring import COUNTERS, OUTBOX_BATCH, _Outbox  # noqa: E402
 from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
 
 ROUTES = """<routes>
@@ -594,13 +594,13 @@ def test_the_childs_outbox_writes_frames_in_batches_or_at_once_when_told():
     parent_end, child_end = socket.socketpair()
     outbox = _Outbox(child_end.fileno(), limit=64 << 20)
     readable = lambda: bool(select.select([parent_end], [], [], 0.05)[0])  # noqa: E731
-    for k in range(background_mod.OUTBOX_BATCH - 1):
+    for k in range(OUTBOX_BATCH - 1):
         outbox.put(("frame", k))
     assert not readable()  # a waiting parent is not woken per frame
     outbox.put(("frame", "last of the batch"))
     assert readable()
     reader = Connection(parent_end.detach())
-    assert [reader.recv()[1] for _ in range(background_mod.OUTBOX_BATCH)][-1] == "last of the batch"
+    assert [reader.recv()[1] for _ in range(OUTBOX_BATCH)][-1] == "last of the batch"
     outbox.put(("meta",), now=True)
     assert reader.recv() == ("meta",)
 

@@ -37,6 +37,7 @@ from acc_fusion.studies.crashes import CrashLog, chain
 from acc_fusion.truth.driver import DriverConfig
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
+from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.truth.sumo.source import SumoSource
 from acc_fusion.truth.sumo.world import SumoWorld
 
@@ -91,16 +92,17 @@ def _run(
     world: bool = False,
 ) -> SumoRun:
     """One SUMO run (in a worker process).  In open loop SUMO runs in a child process ahead of
-    the pipeline (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`); in ``sumo-gui``
+    the pipeline (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`, with the
+    object frames for ``world``); in ``sumo-gui``
     (``sumo_config.gui``) the vehicles are coloured by the warning level of the last method
     of ``sim``; with ``warnings_on`` false the drivers act but hear no warning; with ``world``
     the 2-D pipeline perceives (:func:`~acc_fusion.sim.world.simulate_world` on
-    :class:`~acc_fusion.truth.sumo.world.SumoWorld`, which reads every vehicle in the same
-    process)."""
+    :class:`~acc_fusion.truth.sumo.world.SumoWorld`)."""
 
     config = replace(sumo_config, ssm=cross_check)
-    background = sim.drive is None and not config.gui and not world
-    with BackgroundSumoSource(config) if background else SumoSource(config) as source:
+    objects = ObjectFieldConfig() if world else None
+    background = sim.drive is None and not config.gui
+    with BackgroundSumoSource(config, objects) if background else SumoSource(config) as source:
         history = sim.drive is not None and not warnings_on
         crashes = CrashLog(source, lambda: source.vehicle_ids, dt=source.dt, history=history)
         min_ttc = _MinTTC(source) if cross_check else None

@@ -21,8 +21,9 @@ from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
 from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoConfig
-from acc_fusion.truth.sumo.source import SumoSource
+from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.truth.sumo.world import SumoWorld
 
 #: The columns of :meth:`WorldStudy.scenes`.
@@ -146,9 +147,10 @@ def world_study(
 
 
 def _sumo_world_run(sumo_config: SumoConfig, config: SimConfig, progress: bool):
-    """One SUMO run of the 2-D pipeline (in a worker process: libsumo runs one simulation per
-    process), open loop, at SUMO's step; every method's summary."""
-    with SumoSource(sumo_config) as source:
+    """One SUMO run of the 2-D pipeline, open loop, at SUMO's step; every method's summary.
+    SUMO and the object frames run in a process of their own, ahead of the pipeline
+    (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` with ``objects``)."""
+    with BackgroundSumoSource(sumo_config, objects=ObjectFieldConfig()) as source:
         run = replace(config, dt=source.dt)
         return simulate_world(run, source=SumoWorld(source), progress=progress).summaries
 

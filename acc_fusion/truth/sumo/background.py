@@ -18,6 +18,16 @@ Nothing waits for a request per step: on a virtual machine, waking a sleeping pr
 a quarter of a millisecond or more, as much as a SUMO step, and a request-reply per frame
 paid it twice per step.
 
+Object frames (the 2-D world)
+    Opened with ``objects`` (an :class:`~acc_fusion.truth.sumo.objects.ObjectFieldConfig`),
+    the child also makes each step's object arrays
+    (:meth:`SumoObjects.arrays <acc_fusion.truth.sumo.objects.SumoObjects.arrays>`) and writes
+    them into the ring after the frame's; :attr:`BackgroundSumoSource.objects`
+    (:class:`ReceivedObjects`) makes the object frames of them, for
+    :class:`~acc_fusion.truth.sumo.world.SumoWorld`.  There the pipeline is the slower side by
+    far, so the child runs at the lowest priority (:data:`OBJECTS_NICE`) and the ring holds a
+    few frames (:data:`OBJECT_RING_FRAMES`).
+
 Why this is exact, and only in open loop
     The frames are those of a :class:`~acc_fusion.truth.sumo.source.SumoSource` with the same
     config,
@@ -57,35 +67,40 @@ Processes
 from __future__ import annotations
 
 import os
-import pickle
-import select
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import warnings
-from collections import deque
-from itertools import islice
 from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.memory import release_free_heap
 from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.objects import ObjectFrame
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError
 from acc_fusion.truth.sumo.frames import FrameMaker
+from acc_fusion.truth.sumo.objects import (
+    ObjectFieldConfig,
+    SumoObjects,
+    check_prefix,
+    object_frame,
+)
 from acc_fusion.truth.sumo.ring import (
-    _IOV_MAX,
     COUNTERS,
+    OUTBOX_LIMIT,
     _frame_bytes,
     _FrameRing,
+    _objects_bytes,
+    _Outbox,
     _RingWriter,
     _Snapshots,
 )
-from acc_fusion.truth.sumo.source import SumoSource
+from acc_fusion.truth.sumo.source import TRIM_PERIOD, SumoSource
 
 #: Bytes of the ring of shared memory the child writes frames into (at least 16 frames of
 #: every slot): about 1 600 frames of the motorway at its peak, more while it fills.  SUMO's
@@ -93,18 +108,35 @@ from acc_fusion.truth.sumo.source import SumoSource
 #: while the network fills and the parent catches up later; a buffer of a few frames made
 #: each process wait on the other's slow steps instead.
 RING_BYTES = 32 << 20
-#: Bytes of messages the child may hold for the parent beyond the socket's buffer before it
-#: waits (the frames' arrays travel in the ring; this is the rest of them).
-OUTBOX_LIMIT = 16 << 20
-#: Frame messages the child writes to the socket at a time (see :class:`_Outbox`).
-OUTBOX_BATCH = 8
+#: Frames the ring holds of a source that sends object frames, each of every slot with
+#: :data:`OBJECT_RING_SLOTS` object slots (an object frame is hundreds of times a frame's
+#: size, and the pipeline that reads it is the slower side: a few frames ahead suffice).
+OBJECT_RING_FRAMES = 8
+#: Object slots per ego the ring of a source that sends object frames is sized for (on
+#: A10KW, the largest count of objects in one ego's field is about 60; assumption for
+#: other networks): 67 MB for the default 1 024 slots.  A frame of more than a quarter of
+#: the ring is a :class:`~acc_fusion.truth.sumo.config.SumoError`.
+OBJECT_RING_SLOTS = 64
+#: Niceness the child of a source that sends object frames adds to its own: the 2-D
+#: pipeline it feeds needs several times its time per step and runs compiled kernels on every
+#: core; at the same priority the child took a core from them mid-kernel (each kernel then
+#: waits for its slowest thread), at the lowest it runs in the pipeline's serial stretches.
+#: ``python scripts/bench_world.py``, 2026-11-27, one run each: ``overhead_ratio`` 12.0 at
+#: niceness 0, 11.6 at 19 with libgomp's default spin, 9.0 at 19 with
+#: :mod:`acc_fusion.core.threads`' (five runs: median 10.3, docs/benchmarks.md).
+OBJECTS_NICE = 19
 #: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
 CLOSE_TIMEOUT = 30.0
 
 
-def _ring_bytes(n_pairs: int) -> int:
-    """Bytes of the ring of a source of ``n_pairs`` slots (see :data:`RING_BYTES`)."""
-    return max(RING_BYTES, 16 * _frame_bytes(n_pairs, n_pairs))
+def _ring_bytes(n_pairs: int, objects: bool = False) -> int:
+    """Bytes of the ring of a source of ``n_pairs`` slots (see :data:`RING_BYTES`), with
+    room for :data:`OBJECT_RING_FRAMES` frames of every slot with :data:`OBJECT_RING_SLOTS`
+    objects each if it sends ``objects``."""
+    frame = _frame_bytes(n_pairs, n_pairs)
+    if not objects:
+        return max(RING_BYTES, 16 * frame)
+    return OBJECT_RING_FRAMES * (frame + _objects_bytes(n_pairs, OBJECT_RING_SLOTS))
 
 
 def _failure(exc: BaseException) -> tuple:
@@ -121,70 +153,16 @@ def _child(fd: int, ring_fd: int, ring_size: int) -> None:
     conn = Connection(fd)
     ring = _FrameRing(ring_fd, ring_size)
     os.close(ring_fd)  # the mapping stays
-    _serve(conn.recv(), conn, ring)
+    _serve(*conn.recv(), conn, ring)
 
 
-class _Outbox:
-    """Messages to the parent, written to the socket without blocking SUMO's stepping.
-
-    Messages are written :data:`OUTBOX_BATCH` at a time (one ``writev``), or at once when
-    :meth:`put` is told ``now``: a parent waiting for frames is woken once per batch, not
-    per frame, and waking a process costs the waker as much as a SUMO step on a virtual
-    machine.  A message that does not fit in the socket's buffer waits here, in order, and
-    is written as the parent reads; only when more than ``limit`` bytes wait does
-    :meth:`put` block until the parent has caught up to ``limit``.  The bytes on the socket
-    are those of ``Connection.send`` (a 4-byte big-endian length, then the pickle), so the
-    parent reads them with ``Connection.recv``.  The socket is non-blocking while the outbox
-    is open.
-    """
-
-    def __init__(self, fd: int, limit: int) -> None:
-        self._fd, self._limit = fd, limit
-        self._queue: deque[memoryview] = deque()
-        self._queued = 0
-        os.set_blocking(fd, False)
-
-    def put(self, message: tuple, now: bool = False) -> None:
-        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
-        for part in (struct.pack("!i", len(data)), data):
-            self._queue.append(memoryview(part))
-            self._queued += len(part)
-        batch = len(self._queue) >= 2 * OUTBOX_BATCH  # two parts a message
-        if now or batch or self._queued > self._limit:
-            self._write(self._limit)
-
-    def flush(self) -> None:
-        """Write everything still waiting (blocking)."""
-        self._write(0)
-
-    def close(self) -> None:
-        """Write everything still waiting (blocking), and make the socket blocking again."""
-        self._write(0)
-        os.set_blocking(self._fd, True)
-
-    def _write(self, keep: int) -> None:
-        """Write what the socket takes; block while more than ``keep`` bytes wait."""
-        queue = self._queue
-        while queue:
-            try:
-                sent = os.writev(self._fd, list(islice(queue, _IOV_MAX)))
-            except BlockingIOError:
-                if self._queued <= keep:
-                    return
-                select.select([], [self._fd], [])
-                continue
-            self._queued -= sent
-            while sent >= len(queue[0]):
-                sent -= len(queue.popleft())
-                if not queue:
-                    return
-            queue[0] = queue[0][sent:]
-
-
-def _serve(config: SumoConfig, conn: Any, ring: _FrameRing) -> None:
+def _serve(
+    config: SumoConfig, objects: ObjectFieldConfig | None, conn: Any, ring: _FrameRing
+) -> None:
     """Run a :class:`SumoSource` to its end, sending every frame as soon as it is read
-    (its arrays through ``ring``, the rest through an :class:`_Outbox`); then answer
-    ``"ssm"`` requests until the parent closes the socket."""
+    (its arrays through ``ring``, the rest through an :class:`_Outbox`), with the object
+    frame of its slots in use if ``objects`` is given; then answer ``"ssm"`` requests until
+    the parent closes the socket."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -193,19 +171,29 @@ def _serve(config: SumoConfig, conn: Any, ring: _FrameRing) -> None:
             conn.send(_failure(exc))
             return
         try:
+            if objects is not None:  # the pipeline is the slower side: it has the cores first
+                os.nice(OBJECTS_NICE)
+            try:
+                field = None if objects is None else SumoObjects(src, objects)
+            except Exception as exc:  # e.g. a network without lanes to place objects on
+                conn.send(_failure(exc))
+                return
             outbox = _Outbox(conn.fileno(), OUTBOX_LIMIT)
             meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
             outbox.put(("meta", meta))
-            snapshot = _Snapshots(src.n_pairs, _RingWriter(ring, conn, outbox))
+            snapshot = _Snapshots(src.n_pairs, _RingWriter(ring, conn, outbox), field)
             outbox.put(snapshot(src, caught), now=True)  # the parent waits for it
             while not src.done:
                 caught.clear()
                 try:
                     src._step()
+                    message = snapshot(src, caught)
+                except (EOFError, OSError):  # the parent is gone (the outer handler)
+                    raise
                 except Exception as exc:  # SUMO failed: the parent raises it at this frame
                     outbox.put(_failure(exc))
                     break
-                outbox.put(snapshot(src, caught))
+                outbox.put(message)
             outbox.close()
             while True:
                 request = conn.recv()
@@ -245,9 +233,13 @@ class BackgroundSumoSource(SlotSource):
     #: Closed loops need a source that applies brake requests before its next step.
     accepts_brakes = False
 
-    def __init__(self, config: SumoConfig) -> None:
+    def __init__(self, config: SumoConfig, objects: ObjectFieldConfig | None = None) -> None:
         if not isinstance(config, SumoConfig):
             raise ConfigError(f"config must be a SumoConfig, got {type(config).__name__}")
+        if objects is not None and not isinstance(objects, ObjectFieldConfig):
+            raise ConfigError(
+                f"objects must be an ObjectFieldConfig or None, got {type(objects).__name__}"
+            )
         if config.gui:
             raise ConfigError(
                 "gui needs the warning levels in SUMO at every step; run it with SumoSource"
@@ -255,7 +247,7 @@ class BackgroundSumoSource(SlotSource):
         self.config = config
         self._closed = True
         mine, theirs = socket.socketpair()
-        fd, size = theirs.fileno(), _ring_bytes(int(config.capacity))
+        fd, size = theirs.fileno(), _ring_bytes(int(config.capacity), objects is not None)
         ring_fd = _FrameRing.create(size)
         # The parent's imports (also from a checkout), and not the working directory that
         # ``python -c`` puts first: a package there would shadow the parent's.
@@ -276,13 +268,15 @@ class BackgroundSumoSource(SlotSource):
         self._conn = Connection(mine.detach())
         self._closed = False
         try:
-            self._conn.send(config)
+            self._conn.send((config, objects))
+            self.objects = None if objects is None else ReceivedObjects(self, objects)
             meta = self._receive("meta")[1]
             self.dt, self.begin, self.end_time = meta["dt"], meta["begin"], meta["end_time"]
             self.n_pairs, self._n_steps = meta["n_pairs"], meta["n_steps"]
             self._vehicle_ids: list[str | None] = [None] * self.n_pairs
             self._maker = FrameMaker(self.n_pairs, self.dt, float(config.lookahead))
             self._k = 0
+            self._trim_steps = max(1, round(TRIM_PERIOD / self.dt))
             self._take(self._receive("frame"))
         except BaseException:
             self.close()
@@ -314,11 +308,15 @@ class BackgroundSumoSource(SlotSource):
     def _take(self, message: tuple) -> None:
         """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring, fill
         in the empty slots beyond them and make the frame."""
-        (_, t, k, m, position, ids, news, others, done, counts, caught) = message
+        (_, t, k, m, position, ids, news, others, done, counts, caught, objects_m) = message
         self._collision_speed, speed, dists, codes, flags = self._ring.read(
             position, k, m, self.n_pairs
         )
-        self._give_back(position + _frame_bytes(k, m))
+        end = position + _frame_bytes(k, m)
+        if objects_m is not None:
+            self._object_arrays = self._ring.read_objects(end, k, objects_m)
+            end += _objects_bytes(k, objects_m)
+        self._give_back(end)
         self._active, self._reassigned, self._collided, self._inattentive = flags
         slots = np.flatnonzero(self._active)
         self._frame = self._maker.make(t, slots, speed, dists, codes, news, others)
@@ -342,19 +340,25 @@ class BackgroundSumoSource(SlotSource):
                 pass
 
     # ---------------------------------------------------------------- the source interface
-    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+    def advance(
+        self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None
+    ) -> TruthFrame:
         """The next frame (usually already computed and waiting in the socket).
 
         Raises:
-            ConfigError: a brake request (any value > 0): this source runs ahead of them.
+            ConfigError: a brake request (any value > 0) or a held vehicle: this source runs
+                ahead of them.
             SumoError: SUMO failed at this step, the run has ended, or the source is closed.
         """
-        if ego_brake is not None:
-            brake = check_array("ego_brake", ego_brake, (self.n_pairs,), finite=False)
-            if np.any(brake > 0):
+        requests = (("ego_brake", ego_brake, "apply brake requests"),
+                    ("hold", hold, "hold a distracted driver's vehicle"))  # fmt: skip
+        for name, value, what in requests:
+            if value is not None and np.any(
+                check_array(name, value, (self.n_pairs,), finite=False) > 0
+            ):
                 raise ConfigError(
-                    "a BackgroundSumoSource runs ahead of the pipeline and cannot apply brake "
-                    "requests; use SumoSource for a closed loop"
+                    f"a BackgroundSumoSource runs ahead of the pipeline and cannot {what}; "
+                    "use SumoSource for a closed loop"
                 )
         if self._closed:
             raise SumoError("the SUMO simulation is closed; open a new source")
@@ -362,6 +366,8 @@ class BackgroundSumoSource(SlotSource):
             raise SumoError(f"the SUMO run has ended at t = {self.t:g} s")
         self._take(self._receive("frame"))
         self._k += 1
+        if self._k % self._trim_steps == 0:  # the pipeline's heap, as SumoSource trims it
+            release_free_heap()
         return self._frame
 
     @property
@@ -431,3 +437,37 @@ class BackgroundSumoSource(SlotSource):
         except subprocess.TimeoutExpired:
             self._proc.kill()
             self._proc.wait()
+
+
+class ReceivedObjects:
+    """The object frames a :class:`BackgroundSumoSource` opened with ``objects`` receives:
+    :meth:`frame` as :meth:`SumoObjects.frame <acc_fusion.truth.sumo.objects.SumoObjects.frame>`
+    gives it in process, bit for bit.
+
+    The child makes each step's object arrays for the slots its frame message covers (up to
+    the last slot holding a vehicle); a frame of more slots adds empty ones
+    (:meth:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays.widened`), of fewer is the head of
+    it (the slots beyond hold no vehicle, so neither changes a value).
+
+    Attributes:
+        config: the :class:`~acc_fusion.truth.sumo.objects.ObjectFieldConfig` the child uses.
+    """
+
+    def __init__(self, source: BackgroundSumoSource, config: ObjectFieldConfig) -> None:
+        self._source, self.config = source, config
+        self._frame: ObjectFrame | None = None
+
+    def frame(self, egos: int | None = None) -> ObjectFrame:
+        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step, of
+        its first ``egos`` slots (``None``: every slot); as ``SumoObjects.frame``.
+
+        Raises:
+            InputError: ``egos`` is out of range or leaves out an active slot.
+        """
+        src = self._source
+        n = src.n_pairs if egos is None else check_prefix(egos, src._active)
+        cached = self._frame
+        if cached is None or cached.t != src.t or cached.n_egos < n:
+            arrays = src._object_arrays
+            self._frame = object_frame(src.frame(), arrays.widened(max(n, arrays.lead.size)))
+        return self._frame.head(n)

@@ -91,9 +91,9 @@ def _fill(
     ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width, cos_h, sin_h,
     okind, oid, oedge, olane, props, out, out_id, out_kind, out_lane, lead,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """Write the hits of :func:`_search` into the outputs (:func:`_outputs`, uninitialised),
-    the slots after each ego's hits empty (NaN, id -1, kind 0, off-road), and ``lead``: the
-    slot of the vehicle whose id is ``lead_id`` (-1: none)."""
+    """Write the hits of :func:`_search` into the outputs (``object_arrays.object_outputs``,
+    uninitialised), the slots after each ego's hits empty (NaN, id -1, kind 0, off-road), and
+    ``lead``: the slot of the vehicle whose id is ``lead_id`` (-1: none)."""
     ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width = borrow(
         (ego, counts, hit_j, hit_x, hit_y, lead_id, ego_speed, curvature, lane_width)
     )
@@ -105,10 +105,7 @@ def _fill(
     for e in range(ego.shape[0]):
         i = ego[e]
         lead[e] = -1
-        for k in range(counts[e], out_id.shape[1]):
-            for r in range(out.shape[0]):
-                out[r, e, k] = np.nan
-            out_id[e, k], out_kind[e, k], out_lane[e, k] = -1, 0, _OFF_ROAD
+        _clear(e, counts[e], out, out_id, out_kind, out_lane)
         for k in range(counts[e]):
             j = hit_j[h]
             _put(e, k, j, hit_x[h], hit_y[h], cos_h[i], sin_h[i], ego_speed[e], cos_h, sin_h,
@@ -124,6 +121,24 @@ def _fill(
             if oid[j] == lead_id[e] and okind[j] == _VEHICLE:
                 lead[e] = k
             h += 1
+
+
+@njit(cache=True)
+def _clear(e, start, out, out_id, out_kind, out_lane):  # pragma: no cover - compiled
+    """Empty the object slots of ego ``e`` from ``start`` on: NaN, id -1, kind 0, off-road."""
+    for k in range(start, out_id.shape[1]):
+        for r in range(out.shape[0]):
+            out[r, e, k] = np.nan
+        out_id[e, k], out_kind[e, k], out_lane[e, k] = -1, 0, _OFF_ROAD
+
+
+@njit(cache=True)
+def _empty_egos(start, out, out_id, out_kind, out_lane, lead):  # pragma: no cover - compiled
+    """Make the egos from ``start`` on egos without a vehicle: every object slot empty
+    (:func:`_clear`), no lead."""
+    for e in range(start, out_id.shape[0]):
+        lead[e] = -1
+        _clear(e, 0, out, out_id, out_kind, out_lane)
 
 
 @njit(cache=True)

@@ -92,6 +92,7 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.validation import check_range
 from acc_fusion.truth.objects import ObjectFrame, ObjectKind
+from acc_fusion.truth.sumo.object_arrays import ObjectArrays, object_frame, object_outputs
 from acc_fusion.truth.sumo.object_kernels import _fill, _grid, _search
 from acc_fusion.truth.sumo.reading import raw_function
 from acc_fusion.truth.sumo.roadside import (
@@ -319,14 +320,33 @@ class SumoObjects:
         Raises:
             InputError: ``egos`` is out of range or leaves out an active slot.
         """
-        src, cfg = self._source, self.config
-        if src.closed:
-            raise ConfigError("the SUMO source is closed")
-        truth = src.frame()
-        n = src.n_pairs if egos is None else self._prefix(egos)
+        truth = self._truth()
+        n = self._source.n_pairs if egos is None else self._prefix(egos)
         cached = self._frame
         if cached is not None and cached.t == truth.t and cached.n_egos >= n:  # asked again
             return cached.head(n)
+        self._frame = object_frame(truth, self._arrays(truth, n))
+        return self._frame
+
+    def arrays(self, egos: int) -> ObjectArrays:
+        """The arrays of ``frame(egos)`` (made anew; what SUMO's background process sends,
+        :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`).
+
+        Raises:
+            InputError: ``egos`` is out of range or leaves out an active slot.
+        """
+        truth = self._truth()
+        return self._arrays(truth, self._prefix(egos))
+
+    def _truth(self):
+        """The source's frame of the current step (the source must be open)."""
+        if self._source.closed:
+            raise ConfigError("the SUMO source is closed")
+        return self._source.frame()
+
+    def _arrays(self, truth, n: int) -> ObjectArrays:
+        """The object arrays of the first ``n`` slots at ``truth``'s step."""
+        src, cfg = self._source, self.config
         ids, veh = self._vehicles(truth.t)
         road, nv = self.roadside, len(ids)
         nr = len(road)
@@ -356,36 +376,16 @@ class SumoObjects:
             if total <= self._room:
                 break
             self._room = 2 * total
-        out = _outputs(n, int(counts.max()) if n else 0)
-        ego_speed = truth.ego_speed[:n]
-        _fill(ego, counts, *hits, truth.leader_id[:n], ego_speed, curvature, lane_width,
-              cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
+        out = object_outputs(n, int(counts.max()) if n else 0)
+        _fill(ego, counts, *hits, truth.leader_id[:n], truth.ego_speed[:n], curvature,
+              lane_width, cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
               *out)  # fmt: skip
-        floats, object_id, kinds, lane, lead = out
-        self._frame = ObjectFrame.from_arrays(
-            truth.t,
-            ego_speed=ego_speed,
-            ego_accel=truth.ego_accel[:n],
-            ego_yaw_rate=self._yaw_rate(truth.t, heading, ego_id, has),
-            road_curvature=curvature,
-            valid=object_id >= 0,
-            object_id=object_id,
-            kind=kinds,
-            lane=lane,
-            lead=lead,
-            **dict(zip(_FIELDS, floats, strict=True)),
-        )
-        return self._frame
+        yaw_rate = self._yaw_rate(truth.t, heading, ego_id, has)
+        return ObjectArrays(*out, yaw_rate, curvature)
 
     def _prefix(self, egos: int) -> int:
         """``egos`` checked as the length of a prefix of the slots holding every active one."""
-        n, active = self._source.n_pairs, self._source.active
-        if isinstance(egos, bool) or not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
-            raise InputError(f"egos must be an integer in [0, {n}], got {egos!r}")
-        if active[egos:].any():
-            raise InputError(f"egos = {egos} leaves out active slots; give at least "
-                             f"{int(np.flatnonzero(active)[-1]) + 1}")  # fmt: skip
-        return int(egos)
+        return check_prefix(egos, self._source.active)
 
     def _ego_lane(self, ego: np.ndarray, veh: dict) -> tuple[np.ndarray, np.ndarray]:
         """Road curvature [1/m] and lane width [m] at each ego (0 and 1 for empty slots)."""
@@ -424,19 +424,17 @@ _NO_INFO = (-1, False, False)
 _VEHICLE = int(ObjectKind.VEHICLE)
 
 
-#: The float fields of an :class:`ObjectFrame`, in the order of :func:`_fill`'s output.
-_FIELDS = ("x", "y", "elevation", "vx", "vy", "speed", "accel", "heading", "length", "width",
-           "height", "rcs", "thermal_contrast", "lateral_speed")  # fmt: skip
+def check_prefix(egos: int, active: np.ndarray) -> int:
+    """``egos`` checked as the length of a prefix of the slots ``active (N,)`` that holds
+    every active one.
 
-
-def _outputs(n: int, m: int) -> tuple[np.ndarray, ...]:
-    """The outputs of :func:`_fill` for ``n`` egos and ``m`` object slots, uninitialised
-    (it writes every entry): the float fields of :data:`_FIELDS`, object ids, kinds,
-    relative lanes and lead slots."""
-    return (
-        np.empty((len(_FIELDS), n, m)),
-        np.empty((n, m), dtype=np.int64),
-        np.empty((n, m), dtype=np.int8),
-        np.empty((n, m), dtype=np.int64),
-        np.empty(n, dtype=np.int64),
-    )
+    Raises:
+        InputError: ``egos`` is not an integer in ``[0, N]`` or leaves out an active slot.
+    """
+    n = active.size
+    if isinstance(egos, bool) or not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
+        raise InputError(f"egos must be an integer in [0, {n}], got {egos!r}")
+    if active[egos:].any():
+        raise InputError(f"egos = {egos} leaves out active slots; give at least "
+                         f"{int(np.flatnonzero(active)[-1]) + 1}")  # fmt: skip
+    return int(egos)

@@ -1,32 +1,48 @@
 """The ring of shared memory through which SUMO's background process streams its reads to the
-pipeline's process: the frame layout (:func:`_frame_bytes`), the ring (:class:`_FrameRing`), the
-child's writer and per-step snapshots, with the packing kernels (numba)."""
+pipeline's process: the frame layout (:func:`_frame_bytes`, :func:`_objects_bytes`), the ring
+(:class:`_FrameRing`), the child's writer and per-step snapshots, with the packing kernels
+(numba), and the child's outbox of messages on the socket (:class:`_Outbox`)."""
 
 from __future__ import annotations
 
 import mmap
 import os
+import pickle
 import select
+import struct
 import tempfile
+from collections import deque
+from itertools import islice
 from multiprocessing.connection import Connection
 from operator import attrgetter
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 
 from acc_fusion.truth.sumo.config import SumoError
+from acc_fusion.truth.sumo.object_arrays import OBJECT_FLOATS, ObjectArrays
+from acc_fusion.truth.sumo.objects import SumoObjects
 from acc_fusion.truth.sumo.source import SumoSource
 
 #: Buffers per ``writev`` (POSIX guarantees at least 16).
 _IOV_MAX = 16
 
-if TYPE_CHECKING:
-    from acc_fusion.truth.sumo.background import _Outbox
 
-
+#: Bytes of messages the child may hold for the parent beyond the socket's buffer before it
+#: waits (the frames' arrays travel in the ring; this is the rest of them).
+OUTBOX_LIMIT = 16 << 20
+#: Frame messages the child writes to the socket at a time (see :class:`_Outbox`).
+OUTBOX_BATCH = 8
 #: The slot flags of a frame message, in order (empty: False).
 _FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
+
+
+def _objects_bytes(k: int, m: int) -> int:
+    """Bytes of the object arrays of ``k`` egos with ``m`` object slots each
+    (:class:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays`, written after a frame's
+    arrays): the float fields, object ids and lanes (8 bytes an entry), the lead slots, yaw
+    rates and curvatures (8 bytes an ego), then the kinds (1 byte an entry), rounded up to 8."""
+    return 8 * ((len(OBJECT_FLOATS) + 2) * k * m + 3 * k) + -(-(k * m) // 8) * 8
 
 
 def _frame_bytes(k: int, m: int) -> int:
@@ -55,6 +71,7 @@ class _FrameRing:
         self._memory = mmap.mmap(fd, size, flags=flags)
         memory = np.frombuffer(self._memory, np.uint8)  # size: a multiple of 8
         self._views = (memory.view(np.float64), memory.view(np.int64), memory.view(np.bool_))
+        self._kinds = memory.view(np.int8)
 
     @staticmethod
     def create(size: int) -> int:
@@ -82,6 +99,32 @@ class _FrameRing:
         ``(n,)`` collision speeds (NaN beyond ``k``), the ``(m,)`` speeds, leader distances
         and leader codes, and the ``(4, n)`` flags (False beyond ``k``)."""
         return _unpack(*self._views, position % self.size, k, m, n)
+
+    def write_objects(self, position: int, arrays: ObjectArrays) -> None:
+        """Write an object frame's arrays at ``position`` (:func:`_objects_bytes`)."""
+        for room, values in zip(self._object_views(position, *arrays.object_id.shape), arrays,
+                                strict=True):  # fmt: skip
+            room[...] = values
+
+    def read_objects(self, position: int, k: int, m: int) -> ObjectArrays:
+        """A copy of the object arrays of ``k`` egos and ``m`` object slots written at
+        ``position``."""
+        return ObjectArrays(*(a.copy() for a in self._object_views(position, k, m)))
+
+    def _object_views(self, position: int, k: int, m: int) -> ObjectArrays:
+        """Views of the ring's memory holding the object arrays at ``position``, in the
+        order of :func:`_objects_bytes`."""
+        floats, ints = self._views[:2]
+        at, km, nf = (position % self.size) // 8, k * m, len(OBJECT_FLOATS)
+        rows = floats[at : at + nf * km].reshape(nf, k, m)
+        at += nf * km
+        object_id, lane = (ints[at + i * km : at + (i + 1) * km].reshape(k, m) for i in (0, 1))
+        at += 2 * km
+        lead, yaw_rate, curvature = ints[at : at + k], *(floats[at + i * k : at + (i + 1) * k]
+                                                          for i in (1, 2))  # fmt: skip
+        at += 3 * k
+        kind = self._kinds[8 * at : 8 * at + km].reshape(k, m)
+        return ObjectArrays(rows, object_id, kind, lane, lead, yaw_rate, curvature)
 
 
 @njit(cache=True)
@@ -136,15 +179,35 @@ class _RingWriter:
         self._ring, self._conn, self._outbox = ring, conn, outbox
         self._head = self._returned = 0
 
-    def write(self, frame: tuple[np.ndarray, ...], k: int, m: int) -> int:
-        """Write a frame's arrays (:meth:`_FrameRing.write`: ``k`` slots, ``m`` vehicles);
-        returns its position."""
+    def write(
+        self, frame: tuple[np.ndarray, ...], k: int, m: int, objects: ObjectArrays | None = None
+    ) -> int:
+        """Write a frame's arrays (:meth:`_FrameRing.write`: ``k`` slots, ``m`` vehicles),
+        followed by its ``objects`` if any (:meth:`_FrameRing.write_objects`); returns its
+        position.
+
+        A frame may take a quarter of the ring at most: the parent returns room an eighth of
+        the ring at a time, and a frame that does not fit before the ring's end starts at its
+        beginning, so a larger one could wait for room the parent never returns.
+
+        Raises:
+            SumoError: the frame takes more than a quarter of the ring.
+        """
         nbytes = _frame_bytes(k, m)
-        start = self._ring.place(self._head, nbytes)
-        while start + nbytes - self._returned > self._ring.size:
+        total = nbytes if objects is None else nbytes + _objects_bytes(*objects.object_id.shape)
+        if total > self._ring.size // 4:  # the parent could not return the room it needs
+            slots = "" if objects is None else f", {objects.object_id.shape[1]} object slots an ego"
+            raise SumoError(
+                f"a frame of {total / 2**20:.2f} MB ({k} slots, {m} vehicles{slots}) is more "
+                f"than a quarter of the ring of {self._ring.size / 2**20:.2f} MB"
+            )
+        start = self._ring.place(self._head, total)
+        while start + total - self._returned > self._ring.size:
             self._await_room()
         self._ring.write(start, frame, k, m)
-        self._head = start + nbytes
+        if objects is not None:
+            self._ring.write_objects(start + nbytes, objects)
+        self._head = start + total
         return start
 
     def _await_room(self) -> None:
@@ -177,10 +240,10 @@ class _Snapshots:
     changes).
     """
 
-    def __init__(self, n_pairs: int, ring: _RingWriter) -> None:
+    def __init__(self, n_pairs: int, ring: _RingWriter, objects: SumoObjects | None = None) -> None:
         self._known: list[str | None] = [None] * n_pairs  # the slot ids the parent has
         self._was_active = np.zeros(n_pairs, dtype=bool)
-        self._ring = ring
+        self._ring, self._objects = ring, objects
 
     def __call__(self, src: SumoSource, caught: list) -> tuple:
         """The message of ``src``'s current step, with the warnings ``caught`` during it,
@@ -196,7 +259,11 @@ class _Snapshots:
         self._was_active = active
         _, speed, dists, codes, others, _ = src._raw
         arrays = (src._collision_speed, speed, dists, codes, active, reassigned, collided)
-        position = self._ring.write((*arrays, src._inattentive), k, speed.size)
+        objects = None
+        if self._objects is not None:  # the object frame of the same k slots
+            src._make()
+            objects = self._objects.arrays(k)
+        position = self._ring.write((*arrays, src._inattentive), k, speed.size, objects)
         return (
             "frame",
             src.t,
@@ -209,6 +276,7 @@ class _Snapshots:
             src.done,
             _counts(src),
             [(w.category, str(w.message)) for w in caught],
+            None if objects is None else objects.object_id.shape[1],
         )
 
 
@@ -233,3 +301,60 @@ COUNTERS = ("n_departed", "n_equipped", "n_inattentive", "n_hazards", "n_collisi
 
 
 _counts = attrgetter(*COUNTERS)
+
+
+class _Outbox:
+    """Messages to the parent, written to the socket without blocking SUMO's stepping.
+
+    Messages are written :data:`OUTBOX_BATCH` at a time (one ``writev``), or at once when
+    :meth:`put` is told ``now``: a parent waiting for frames is woken once per batch, not
+    per frame, and waking a process costs the waker as much as a SUMO step on a virtual
+    machine.  A message that does not fit in the socket's buffer waits here, in order, and
+    is written as the parent reads; only when more than ``limit`` bytes wait does
+    :meth:`put` block until the parent has caught up to ``limit``.  The bytes on the socket
+    are those of ``Connection.send`` (a 4-byte big-endian length, then the pickle), so the
+    parent reads them with ``Connection.recv``.  The socket is non-blocking while the outbox
+    is open.
+    """
+
+    def __init__(self, fd: int, limit: int) -> None:
+        self._fd, self._limit = fd, limit
+        self._queue: deque[memoryview] = deque()
+        self._queued = 0
+        os.set_blocking(fd, False)
+
+    def put(self, message: tuple, now: bool = False) -> None:
+        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        for part in (struct.pack("!i", len(data)), data):
+            self._queue.append(memoryview(part))
+            self._queued += len(part)
+        batch = len(self._queue) >= 2 * OUTBOX_BATCH  # two parts a message
+        if now or batch or self._queued > self._limit:
+            self._write(self._limit)
+
+    def flush(self) -> None:
+        """Write everything still waiting (blocking)."""
+        self._write(0)
+
+    def close(self) -> None:
+        """Write everything still waiting (blocking), and make the socket blocking again."""
+        self._write(0)
+        os.set_blocking(self._fd, True)
+
+    def _write(self, keep: int) -> None:
+        """Write what the socket takes; block while more than ``keep`` bytes wait."""
+        queue = self._queue
+        while queue:
+            try:
+                sent = os.writev(self._fd, list(islice(queue, _IOV_MAX)))
+            except BlockingIOError:
+                if self._queued <= keep:
+                    return
+                select.select([], [self._fd], [])
+                continue
+            self._queued -= sent
+            while sent >= len(queue[0]):
+                sent -= len(queue.popleft())
+                if not queue:
+                    return
+            queue[0] = queue[0][sent:]

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.truth.objects import ObjectFrame
+from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects
 from acc_fusion.truth.sumo.source import SumoSource
 
@@ -16,16 +18,43 @@ class SumoWorld:
     source does: :meth:`advance` passes the drivers' brake requests and held vehicles on, so
     the 2-D pipeline's warnings can close the loop.
 
+    With a :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` opened with
+    ``objects``, SUMO and the object frames run in its process, a few steps ahead of the
+    pipeline (open loop only), with the same frames bit for bit.
+
     Args:
-        source: an open, in-process :class:`~acc_fusion.truth.sumo.source.SumoSource`.
-        config: the :class:`ObjectFieldConfig`.
+        source: an open :class:`~acc_fusion.truth.sumo.source.SumoSource`, or a
+            :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` opened with
+            ``objects``.
+        config: the :class:`ObjectFieldConfig` (``None``: the default, or the background
+            source's).
 
     Attributes:
-        source: the source; objects: its :class:`SumoObjects`.
+        source: the source; objects: its :class:`SumoObjects` (or the background source's
+            :class:`~acc_fusion.truth.sumo.background.ReceivedObjects`).
+
+    Raises:
+        ConfigError: a background source without objects, or with another ``config``.
     """
 
-    def __init__(self, source: SumoSource, config: ObjectFieldConfig | None = None) -> None:
-        self.objects = SumoObjects(source, config)
+    def __init__(
+        self, source: SumoSource | BackgroundSumoSource, config: ObjectFieldConfig | None = None
+    ) -> None:
+        if isinstance(source, BackgroundSumoSource):
+            received = source.objects
+            if received is None:
+                raise ConfigError(
+                    "the BackgroundSumoSource sends no object frames; open it with "
+                    "objects=ObjectFieldConfig()"
+                )
+            if config is not None and config != received.config:
+                raise ConfigError(
+                    "config differs from the ObjectFieldConfig the BackgroundSumoSource was "
+                    "opened with; give it there"
+                )
+            self.objects = received
+        else:
+            self.objects = SumoObjects(source, config)
         self.source = source
 
     def frame(self) -> ObjectFrame:
