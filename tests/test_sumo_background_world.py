@@ -22,6 +22,7 @@ from acc_fusion.truth.sumo import background as background_mod  # noqa: E402
 from acc_fusion.truth.sumo.background import BackgroundSumoSource  # noqa: E402
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError  # noqa: E402
 from acc_fusion.truth.sumo.nets import bundled_nets  # noqa: E402
+from acc_fusion.truth.sumo.object_arrays import object_frame  # noqa: E402
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects  # noqa: E402
 from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
 from acc_fusion.truth.sumo.world import SumoWorld  # noqa: E402
@@ -115,15 +116,35 @@ def test_background_objects_are_open_loop_and_checked():
         assert os.getpriority(os.PRIO_PROCESS, src.pid) == expected
 
 
-def test_an_object_frame_larger_than_the_ring_is_a_sumo_error(monkeypatch):
-    monkeypatch.setattr(background_mod, "OBJECT_RING_SLOTS", 0)  # room for 8 bare frames
-    src = BackgroundSumoSource(motorway(end=60.0), ObjectFieldConfig())
-    with pytest.raises(
-        SumoError, match=r"object slots an ego\) is more than a quarter of the ring"
-    ):
+def test_an_object_frame_larger_than_the_ring_is_a_sumo_error_at_that_frame(monkeypatch):
+    monkeypatch.setattr(background_mod, "OBJECT_RING_SLOTS", 0)  # room for a few bare frames
+    with BackgroundSumoSource(motorway(end=60.0), ObjectFieldConfig()) as src:
+        match = r"object slots an ego\) is more than a quarter of the ring.*in process"
+        with pytest.raises(SumoError, match=match):
+            while not src.done:
+                src.advance()
+        assert src.closed and src.t > 0
+
+
+def test_a_frame_cut_to_fewer_slots_than_sent_is_the_in_process_frame():
+    """The parent may ask for fewer slots than the child sent (those after the last active
+    one: a slot that lost its vehicle or was flagged): the arrays of more slots, cut, are the
+    frame of fewer, bit for bit."""
+    config = SumoConfig(str(bundled_nets()["ring"]), end=20.0, seed=4, capacity=256)
+    checked = 0
+    with SumoSource(config) as src:
+        objects = SumoObjects(src)
         while not src.done:
             src.advance()
-    assert src.closed and src.t > 0
+            active = src.active
+            top = int(np.flatnonzero(active)[-1]) + 1 if active.any() else 0
+            more = objects.arrays(min(top + 5, src.n_pairs))
+            for n in range(top, min(top + 5, src.n_pairs)):
+                cut, frame = object_frame(src.frame(), more.resized(n)), objects.frame(n)
+                for name in NAMES:
+                    np.testing.assert_array_equal(getattr(cut, name), getattr(frame, name))
+                checked += 1
+    assert checked > 500
 
 
 def test_importing_the_kernels_shortens_openmp_s_spin_unless_the_user_set_it():

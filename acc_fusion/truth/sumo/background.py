@@ -111,12 +111,14 @@ RING_BYTES = 32 << 20
 #: Frames the ring holds of a source that sends object frames, each of every slot with
 #: :data:`OBJECT_RING_SLOTS` object slots (an object frame is hundreds of times a frame's
 #: size, and the pipeline that reads it is the slower side: a few frames ahead suffice).
-OBJECT_RING_FRAMES = 8
-#: Object slots per ego the ring of a source that sends object frames is sized for (on
-#: A10KW, the largest count of objects in one ego's field is about 60; assumption for
-#: other networks): 67 MB for the default 1 024 slots.  A frame of more than a quarter of
-#: the ring is a :class:`~acc_fusion.truth.sumo.config.SumoError`.
-OBJECT_RING_SLOTS = 64
+OBJECT_RING_FRAMES = 6
+#: Object slots per ego the ring of a source that sends object frames is sized for: 102 MB
+#: for the default 1 024 slots, so a frame of every slot may have up to about 190 objects
+#: in an ego's field (a frame of more than a quarter of the ring is a
+#: :class:`~acc_fusion.truth.sumo.config.SumoError`).  With the default field (200 m ahead,
+#: 15 m either side) A10KW's densest half hour had at most 111 (the frame of 845 egos
+#: took 12 MB); a field much larger than the default needs the in-process source.
+OBJECT_RING_SLOTS = 128
 #: Niceness the child of a source that sends object frames adds to its own: the 2-D
 #: pipeline it feeds needs several times its time per step and runs compiled kernels on every
 #: core; at the same priority the child took a core from them mid-kernel (each kernel then
@@ -137,6 +139,10 @@ def _ring_bytes(n_pairs: int, objects: bool = False) -> int:
     if not objects:
         return max(RING_BYTES, 16 * frame)
     return OBJECT_RING_FRAMES * (frame + _objects_bytes(n_pairs, OBJECT_RING_SLOTS))
+
+
+#: What the child's reads and writes on the socket raise once the parent has gone.
+_PARENT_GONE = (EOFError, BrokenPipeError, ConnectionResetError)
 
 
 def _failure(exc: BaseException) -> tuple:
@@ -182,18 +188,20 @@ def _serve(
             meta = {k: getattr(src, k) for k in ("dt", "begin", "end_time", "n_pairs", "n_steps")}
             outbox.put(("meta", meta))
             snapshot = _Snapshots(src.n_pairs, _RingWriter(ring, conn, outbox), field)
-            outbox.put(snapshot(src, caught), now=True)  # the parent waits for it
-            while not src.done:
-                caught.clear()
+            first = True
+            while first or not src.done:
                 try:
-                    src._step()
+                    if not first:
+                        caught.clear()
+                        src._step()
                     message = snapshot(src, caught)
-                except (EOFError, OSError):  # the parent is gone (the outer handler)
+                except _PARENT_GONE:  # the outer handler
                     raise
                 except Exception as exc:  # SUMO failed: the parent raises it at this frame
-                    outbox.put(_failure(exc))
+                    outbox.put(_failure(exc), now=True)
                     break
-                outbox.put(message)
+                outbox.put(message, now=first)  # the parent waits for the first
+                first = False
             outbox.close()
             while True:
                 request = conn.recv()
@@ -307,16 +315,18 @@ class BackgroundSumoSource(SlotSource):
 
     def _take(self, message: tuple) -> None:
         """Take a frame message of :class:`_Snapshots`: copy its arrays out of the ring, fill
-        in the empty slots beyond them and make the frame."""
+        in the empty slots beyond them and make the frame.  Its object arrays stay in the
+        ring, their room held until the next frame, for :class:`ReceivedObjects` to copy out
+        as many slots as the pipeline asks for."""
         (_, t, k, m, position, ids, news, others, done, counts, caught, objects_m) = message
         self._collision_speed, speed, dists, codes, flags = self._ring.read(
             position, k, m, self.n_pairs
         )
-        end = position + _frame_bytes(k, m)
-        if objects_m is not None:
-            self._object_arrays = self._ring.read_objects(end, k, objects_m)
-            end += _objects_bytes(k, objects_m)
-        self._give_back(end)
+        if objects_m is None:
+            self._give_back(position + _frame_bytes(k, m))
+        else:
+            self._objects_at = (position + _frame_bytes(k, m), k, objects_m)
+            self._give_back(position)
         self._active, self._reassigned, self._collided, self._inattentive = flags
         slots = np.flatnonzero(self._active)
         self._frame = self._maker.make(t, slots, speed, dists, codes, news, others)
@@ -445,9 +455,11 @@ class ReceivedObjects:
     gives it in process, bit for bit.
 
     The child makes each step's object arrays for the slots its frame message covers (up to
-    the last slot holding a vehicle); a frame of more slots adds empty ones
-    (:meth:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays.widened`), of fewer is the head of
-    it (the slots beyond hold no vehicle, so neither changes a value).
+    the last slot holding a vehicle, a new vehicle or a collision flag); a frame of more
+    slots adds empty ones, one of fewer
+    leaves the rest out (the slots beyond hold no vehicle, so neither changes a value), as
+    it copies them out of the ring
+    (:meth:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays.resized`).
 
     Attributes:
         config: the :class:`~acc_fusion.truth.sumo.objects.ObjectFieldConfig` the child uses.
@@ -468,6 +480,5 @@ class ReceivedObjects:
         n = src.n_pairs if egos is None else check_prefix(egos, src._active)
         cached = self._frame
         if cached is None or cached.t != src.t or cached.n_egos < n:
-            arrays = src._object_arrays
-            self._frame = object_frame(src.frame(), arrays.widened(max(n, arrays.lead.size)))
+            self._frame = object_frame(src.frame(), src._ring.read_objects(*src._objects_at, n))
         return self._frame.head(n)

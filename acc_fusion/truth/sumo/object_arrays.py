@@ -33,18 +33,20 @@ class ObjectArrays(NamedTuple):
     yaw_rate: np.ndarray
     curvature: np.ndarray
 
-    def widened(self, n: int) -> ObjectArrays:
-        """These arrays for the first ``n >= E`` slots: the slots after ``E`` hold no
-        vehicle (no object, no lead, yaw rate and curvature 0), as
-        :meth:`~acc_fusion.truth.sumo.objects.SumoObjects.frame` makes an inactive slot."""
-        e, m = self.lead.size, self.object_id.shape[1]
-        if n == e:
-            return self
+    def resized(self, n: int) -> ObjectArrays:
+        """A copy of these arrays for the first ``n`` slots: the first ``min(n, E)`` rows,
+        and slots after ``E`` that hold no vehicle (no object, no lead, yaw rate and
+        curvature 0), as :meth:`~acc_fusion.truth.sumo.objects.SumoObjects.frame` makes an
+        inactive slot."""
+        e, m = min(n, self.lead.size), self.object_id.shape[1]
         out = object_outputs(n, m)
         floats, object_id, kind, lane, lead = out
-        floats[:, :e], object_id[:e], kind[:e], lane[:e], lead[:e] = self[:5]
+        floats[:, :e] = self.floats[:, :e]
+        object_id[:e], kind[:e], lane[:e] = self.object_id[:e], self.kind[:e], self.lane[:e]
+        lead[:e] = self.lead[:e]
         _empty_egos(e, *out)
-        rates = [np.concatenate([a, np.zeros(n - e)]) for a in (self.yaw_rate, self.curvature)]
+        rates = np.zeros((2, n))
+        rates[0, :e], rates[1, :e] = self.yaw_rate[:e], self.curvature[:e]
         return ObjectArrays(*out, *rates)
 
 

@@ -59,7 +59,8 @@ class _FrameRing:
     ``position % size`` in the memory, and a frame that would cross the end starts at the
     beginning instead.  The child may write up to ``size`` bytes past what the parent has
     returned: the parent returns the room behind the frames it has copied (an ``("ack",
-    position)`` message, each time an eighth of the ring has been read), and the child
+    position)`` message, each time an eighth of the ring has been read; with object frames
+    the room behind the frame it reads, whose objects it copies when asked), and the child
     waits for it only when the ring is full.  The memory is a file descriptor passed to
     the child (``memfd``, else an unlinked temporary file), mapped with its pages in place
     so the processes' memory stays flat as the ring fills.
@@ -106,10 +107,11 @@ class _FrameRing:
                                 strict=True):  # fmt: skip
             room[...] = values
 
-    def read_objects(self, position: int, k: int, m: int) -> ObjectArrays:
+    def read_objects(self, position: int, k: int, m: int, n: int) -> ObjectArrays:
         """A copy of the object arrays of ``k`` egos and ``m`` object slots written at
-        ``position``."""
-        return ObjectArrays(*(a.copy() for a in self._object_views(position, k, m)))
+        ``position``, for the first ``n`` egos (those after ``k`` empty:
+        :meth:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays.resized`)."""
+        return self._object_views(position, k, m).resized(n)
 
     def _object_views(self, position: int, k: int, m: int) -> ObjectArrays:
         """Views of the ring's memory holding the object arrays at ``position``, in the
@@ -186,9 +188,13 @@ class _RingWriter:
         followed by its ``objects`` if any (:meth:`_FrameRing.write_objects`); returns its
         position.
 
-        A frame may take a quarter of the ring at most: the parent returns room an eighth of
-        the ring at a time, and a frame that does not fit before the ring's end starts at its
-        beginning, so a larger one could wait for room the parent never returns.
+        A frame may take a quarter of the ring at most.  The parent returns room an eighth of
+        the ring at a time and, with object frames, holds the room of the frame it reads
+        until the next; a frame that does not fit before the ring's end starts at its
+        beginning.  So the child may find less than an eighth not yet returned, the held
+        frame and the padding before a wrap (each under a quarter) in its way: with its
+        own quarter, under seven eighths of the ring, it always fits once the parent has
+        read every frame before it.
 
         Raises:
             SumoError: the frame takes more than a quarter of the ring.
@@ -199,7 +205,8 @@ class _RingWriter:
             slots = "" if objects is None else f", {objects.object_id.shape[1]} object slots an ego"
             raise SumoError(
                 f"a frame of {total / 2**20:.2f} MB ({k} slots, {m} vehicles{slots}) is more "
-                f"than a quarter of the ring of {self._ring.size / 2**20:.2f} MB"
+                f"than a quarter of the ring of {self._ring.size / 2**20:.2f} MB; run this "
+                "field or capacity with SumoSource, in process"
             )
         start = self._ring.place(self._head, total)
         while start + total - self._returned > self._ring.size:
@@ -261,7 +268,8 @@ class _Snapshots:
         arrays = (src._collision_speed, speed, dists, codes, active, reassigned, collided)
         objects = None
         if self._objects is not None:  # the object frame of the same k slots
-            src._make()
+            if src.frame().t != src.t:  # the child's steps do not make frames
+                src._make()
             objects = self._objects.arrays(k)
         position = self._ring.write((*arrays, src._inattentive), k, speed.size, objects)
         return (
