@@ -81,15 +81,10 @@ from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.memory import release_free_heap
 from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
-from acc_fusion.truth.objects import ObjectFrame
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError
 from acc_fusion.truth.sumo.frames import FrameMaker
-from acc_fusion.truth.sumo.objects import (
-    ObjectFieldConfig,
-    SumoObjects,
-    check_prefix,
-    object_frame,
-)
+from acc_fusion.truth.sumo.object_arrays import ObjectArrays, ObjectFrames
+from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects
 from acc_fusion.truth.sumo.ring import (
     COUNTERS,
     OUTBOX_LIMIT,
@@ -449,16 +444,15 @@ class BackgroundSumoSource(SlotSource):
             self._proc.wait()
 
 
-class ReceivedObjects:
+class ReceivedObjects(ObjectFrames):
     """The object frames a :class:`BackgroundSumoSource` opened with ``objects`` receives:
     :meth:`frame` as :meth:`SumoObjects.frame <acc_fusion.truth.sumo.objects.SumoObjects.frame>`
     gives it in process, bit for bit.
 
     The child makes each step's object arrays for the slots its frame message covers (up to
     the last slot holding a vehicle, a new vehicle or a collision flag); a frame of more
-    slots adds empty ones, one of fewer
-    leaves the rest out (the slots beyond hold no vehicle, so neither changes a value), as
-    it copies them out of the ring
+    slots adds empty ones, one of fewer leaves the rest out (the slots beyond hold no
+    vehicle, so neither changes a value), as it copies them out of the ring
     (:meth:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays.resized`).
 
     Attributes:
@@ -467,18 +461,10 @@ class ReceivedObjects:
 
     def __init__(self, source: BackgroundSumoSource, config: ObjectFieldConfig) -> None:
         self._source, self.config = source, config
-        self._frame: ObjectFrame | None = None
 
-    def frame(self, egos: int | None = None) -> ObjectFrame:
-        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step, of
-        its first ``egos`` slots (``None``: every slot); as ``SumoObjects.frame``.
+    def _current(self) -> tuple:
+        return self._source.frame(), self._source._active
 
-        Raises:
-            InputError: ``egos`` is out of range or leaves out an active slot.
-        """
+    def _arrays(self, truth, n: int) -> ObjectArrays:
         src = self._source
-        n = src.n_pairs if egos is None else check_prefix(egos, src._active)
-        cached = self._frame
-        if cached is None or cached.t != src.t or cached.n_egos < n:
-            self._frame = object_frame(src.frame(), src._ring.read_objects(*src._objects_at, n))
-        return self._frame.head(n)
+        return src._ring.read_objects(*src._objects_at, n)

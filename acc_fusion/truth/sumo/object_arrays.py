@@ -5,10 +5,12 @@ sends them (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`), an
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import NamedTuple
 
 import numpy as np
 
+from acc_fusion.core.errors import InputError
 from acc_fusion.truth.objects import ObjectFrame
 from acc_fusion.truth.sumo.object_kernels import _empty_egos
 
@@ -81,3 +83,55 @@ def object_outputs(n: int, m: int) -> tuple[np.ndarray, ...]:
         np.empty((n, m), dtype=np.int64),
         np.empty(n, dtype=np.int64),
     )
+
+
+def check_prefix(egos: int, active: np.ndarray) -> int:
+    """``egos`` checked as the length of a prefix of the slots ``active (N,)`` that holds
+    every active one.
+
+    Raises:
+        InputError: ``egos`` is not an integer in ``[0, N]`` or leaves out an active slot.
+    """
+    n = active.size
+    if isinstance(egos, bool) or not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
+        raise InputError(f"egos must be an integer in [0, {n}], got {egos!r}")
+    if active[egos:].any():
+        raise InputError(f"egos = {egos} leaves out active slots; give at least "
+                         f"{int(np.flatnonzero(active)[-1]) + 1}")  # fmt: skip
+    return int(egos)
+
+
+class ObjectFrames(ABC):
+    """Object frames of a source's steps, made once per step for the slots asked
+    (:meth:`frame`); a subclass gives the step's truth and active slots (``_current``) and makes
+    the arrays of a prefix of slots (``_arrays``)."""
+
+    _frame: ObjectFrame | None = None
+
+    def frame(self, egos: int | None = None) -> ObjectFrame:
+        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step.
+
+        Args:
+            egos: make the frame of the first ``egos`` slots only (``frame().head(egos)``
+                without the work on the others); they must include every active slot.
+                ``None``: every slot.  Asked again in the step for as many slots or fewer,
+                it gives (a view of) the same frame; for more, it makes the frame anew.
+
+        Raises:
+            InputError: ``egos`` is out of range or leaves out an active slot.
+        """
+        truth, active = self._current()
+        n = active.size if egos is None else check_prefix(egos, active)
+        cached = self._frame
+        if cached is None or cached.t != truth.t or cached.n_egos < n:
+            self._frame = object_frame(truth, self._arrays(truth, n))
+        return self._frame.head(n)
+
+    @abstractmethod
+    def _current(self) -> tuple:
+        """The source's :class:`~acc_fusion.truth.frame.TruthFrame` of the current step and
+        its ``(N,)`` active slots."""
+
+    @abstractmethod
+    def _arrays(self, truth, n: int) -> ObjectArrays:
+        """The :class:`ObjectArrays` of the first ``n`` slots at ``truth``'s step."""

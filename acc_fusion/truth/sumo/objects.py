@@ -89,10 +89,15 @@ from operator import itemgetter
 
 import numpy as np
 
-from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_range
-from acc_fusion.truth.objects import ObjectFrame, ObjectKind
-from acc_fusion.truth.sumo.object_arrays import ObjectArrays, object_frame, object_outputs
+from acc_fusion.truth.objects import ObjectKind
+from acc_fusion.truth.sumo.object_arrays import (
+    ObjectArrays,
+    ObjectFrames,
+    check_prefix,
+    object_outputs,
+)
 from acc_fusion.truth.sumo.object_kernels import _fill, _grid, _search
 from acc_fusion.truth.sumo.reading import raw_function
 from acc_fusion.truth.sumo.roadside import (
@@ -158,7 +163,7 @@ class ObjectFieldConfig:
             )
 
 
-class SumoObjects:
+class SumoObjects(ObjectFrames):
     """The object truth of a running SUMO source (module docstring).
 
     Args:
@@ -211,7 +216,6 @@ class SumoObjects:
         # Headings and vehicle ids of the slots, with their time: at the previous step and
         # at the current one (see _yaw_rate).
         self._prev = self._now = (np.zeros(n), np.full(n, -1, dtype=np.int64), math.nan)
-        self._frame: ObjectFrame | None = None
         # Per vehicle (by object id): edge row and lane index at the last frame, time of its
         # last lane change and the lateral speed given it (module docstring).
         self._last_lane = np.full((2, 0), -1, dtype=np.int64)
@@ -308,26 +312,6 @@ class SumoObjects:
         }
         return ids, state
 
-    def frame(self, egos: int | None = None) -> ObjectFrame:
-        """The :class:`~acc_fusion.truth.objects.ObjectFrame` of the source's current step.
-
-        Args:
-            egos: make the frame of the first ``egos`` slots only (``frame().head(egos)``
-                without the work on the others); they must include every active slot.
-                ``None``: every slot.  Asked again in the step for as many slots or fewer,
-                it gives (a view of) the same frame; for more, it makes the frame anew.
-
-        Raises:
-            InputError: ``egos`` is out of range or leaves out an active slot.
-        """
-        truth = self._truth()
-        n = self._source.n_pairs if egos is None else self._prefix(egos)
-        cached = self._frame
-        if cached is not None and cached.t == truth.t and cached.n_egos >= n:  # asked again
-            return cached.head(n)
-        self._frame = object_frame(truth, self._arrays(truth, n))
-        return self._frame
-
     def arrays(self, egos: int) -> ObjectArrays:
         """The arrays of ``frame(egos)`` (made anew; what SUMO's background process sends,
         :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`).
@@ -335,14 +319,15 @@ class SumoObjects:
         Raises:
             InputError: ``egos`` is out of range or leaves out an active slot.
         """
-        truth = self._truth()
-        return self._arrays(truth, self._prefix(egos))
+        truth, active = self._current()
+        return self._arrays(truth, check_prefix(egos, active))
 
-    def _truth(self):
-        """The source's frame of the current step (the source must be open)."""
+    def _current(self):
+        """The source's frame of the current step and its active slots (the source must be
+        open)."""
         if self._source.closed:
             raise ConfigError("the SUMO source is closed")
-        return self._source.frame()
+        return self._source.frame(), self._source.active
 
     def _arrays(self, truth, n: int) -> ObjectArrays:
         """The object arrays of the first ``n`` slots at ``truth``'s step."""
@@ -383,10 +368,6 @@ class SumoObjects:
         yaw_rate = self._yaw_rate(truth.t, heading, ego_id, has)
         return ObjectArrays(*out, yaw_rate, curvature)
 
-    def _prefix(self, egos: int) -> int:
-        """``egos`` checked as the length of a prefix of the slots holding every active one."""
-        return check_prefix(egos, self._source.active)
-
     def _ego_lane(self, ego: np.ndarray, veh: dict) -> tuple[np.ndarray, np.ndarray]:
         """Road curvature [1/m] and lane width [m] at each ego (0 and 1 for empty slots)."""
         lanes, has = self.lanes, ego >= 0
@@ -422,19 +403,3 @@ _GETTERS = ("getIDList", "getPosition", "getRoadID", "getLaneIndex", *_ROW_GETTE
 #: ``_info`` entry of a vehicle the source does not know.
 _NO_INFO = (-1, False, False)
 _VEHICLE = int(ObjectKind.VEHICLE)
-
-
-def check_prefix(egos: int, active: np.ndarray) -> int:
-    """``egos`` checked as the length of a prefix of the slots ``active (N,)`` that holds
-    every active one.
-
-    Raises:
-        InputError: ``egos`` is not an integer in ``[0, N]`` or leaves out an active slot.
-    """
-    n = active.size
-    if isinstance(egos, bool) or not (isinstance(egos, (int, np.integer)) and 0 <= egos <= n):
-        raise InputError(f"egos must be an integer in [0, {n}], got {egos!r}")
-    if active[egos:].any():
-        raise InputError(f"egos = {egos} leaves out active slots; give at least "
-                         f"{int(np.flatnonzero(active)[-1]) + 1}")  # fmt: skip
-    return int(egos)
