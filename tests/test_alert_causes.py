@@ -31,6 +31,16 @@ def test_each_warning_is_counted_under_its_class_and_its_onset_cause():
     assert total == s.warnings == 2
 
 
+def test_a_sensing_false_warning_on_the_true_lead_counts_as_noise():
+    """The target was right and the rule would not have fired on it: its estimate was wrong.
+    A warning on the true lead that met a threat stays ``lead``."""
+    s = _run([CAUSES.index("lead"), CAUSES.index("lead"), 0])
+    assert s.by_cause["sensing_false"]["noise"] == 1
+    assert s.by_cause["sensing_false"]["lead"] == 0
+    assert s.by_cause["crash_relevant"]["lead"] == 1
+    assert s.by_cause["crash_relevant"]["noise"] == 0
+
+
 def test_without_causes_the_summary_has_none_and_its_dict_no_key():
     s = _run(None)
     assert s.by_cause is None

@@ -279,8 +279,8 @@ class CollisionWarningWorldEnv(gym.Env):
 
     The 1-D environment's (``t``, ``oracle``, ``ttc``, ``crash_relevant``, ``ego_speed``,
     ``gap_true``, ``collided``, ``active``), ``cause`` (what the selected object is in truth,
-    one of :data:`acc_fusion.metrics.summary.CAUSES`, or ``"none"``), ``scene`` and
-    ``conditions`` (its label).
+    one of :data:`acc_fusion.metrics.summary.CAUSES` other than ``noise``, which only a
+    warning's class gives, or ``"none"``), ``scene`` and ``conditions`` (its label).
 
     ## Example
 

@@ -106,6 +106,9 @@ COUNTS = (
     "warnings", "false_alarms", "threats", "detected", "missed", "collisions", *ALERT_CLASSES,
     "relevant", "relevant_detected", "relevant_missed", "threats_relevant",
 )  # fmt: skip
+#: Indices of the class and the causes that :meth:`FCWMetrics._count_causes` re-labels.
+_SENSING_FALSE = ALERT_CLASSES.index("sensing_false")
+_LEAD, _NOISE = CAUSES.index("lead"), CAUSES.index("noise")
 
 
 class _Events(PairState):
@@ -302,11 +305,16 @@ class FCWMetrics(PairState):
 
     def _count_causes(self, ended: np.ndarray) -> None:
         """Count the warnings that ended with each class (``ended``: (classes, N) masks) under
-        the cause recorded at their onset."""
+        the cause recorded at their onset; a sensing-false one on the true lead under
+        ``noise`` (:data:`CAUSES`)."""
         causes = self._by_cause.shape[1]
         for k, mask in enumerate(ended):
             known = mask & (self._warn_cause >= 0)
-            self._by_cause[k] += np.bincount(self._warn_cause[known], minlength=causes)
+            counts = np.bincount(self._warn_cause[known], minlength=causes)
+            if k == _SENSING_FALSE:
+                counts[_NOISE] += counts[_LEAD]
+                counts[_LEAD] = 0
+            self._by_cause[k] += counts
 
     def _check(self, system, oracle, ttc, speed, active, collided, relevant) -> None:
         """Raise the error of the first bad input of :meth:`update`."""

@@ -19,8 +19,11 @@ ALERT_CLASSES = ("crash_relevant", "nuisance", "sensing_false")
 #: :mod:`acc_fusion.sim.world`): the true in-path lead; a stationary object (parked car,
 #: gantry, bridge, guardrail, sign); a vehicle in another lane; a vehicle changing lanes
 #: (cut-in or cut-out); a ghost or clutter return (no object); any target while a fault of a
-#: sensor the method uses was active.
-CAUSES = ("lead", "stationary", "adjacent", "cut_in_out", "ghost", "fault")
+#: sensor the method uses was active.  ``noise`` is given by the class, not at the onset: a
+#: *sensing-false* warning on the true lead (the target was right, its estimate was wrong
+#: enough to fire the rule, which on the true lead would not have fired) counts as ``noise``,
+#: never as ``lead``; a nuisance or crash-relevant one on the true lead stays ``lead``.
+CAUSES = ("lead", "noise", "stationary", "adjacent", "cut_in_out", "ghost", "fault")
 
 
 @dataclass(frozen=True)
