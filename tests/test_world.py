@@ -107,6 +107,17 @@ def test_dense_fog_blinds_the_camera_so_the_fusion_misses_the_stopped_car_too():
     assert s.relevant_detected == 0
 
 
+def test_a_close_cut_in_is_warned_on_while_it_crosses_into_the_lane_by_each_sensor_alone():
+    """Some cut-ins are crash-relevant; others are warned on before the car is in the lane,
+    which truth's rule would not do: sensing-false alerts caused by the cut-in, for the radar
+    and the camera alone, that the fusion does not remove."""
+    s = _world("cut_in", ("radar", "infrared", "federated"), runs=60)
+    for summary in s.values():
+        assert summary.relevant > 0
+        assert summary.by_cause["sensing_false"]["cut_in_out"] >= 3
+        assert summary.by_cause["sensing_false"]["cut_in_out"] >= 0.8 * summary.sensing_false
+
+
 def test_before_a_curve_the_adjacent_lane_car_fools_every_method():
     s = _world("curve_adjacent", ("radar", "federated"))
     for summary in s.values():  # 2 of the 10 runs (with the stopping-distance rule, 3 or more)

@@ -67,8 +67,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         f"(default: {' '.join(DEFAULT_CONDITIONS)})",
     )
     add_sim_arguments(p, "runs per scene and condition (default 50)")
-    p.add_argument("--plot", metavar="PNG", help="write the by-cause figure here")
-    p.add_argument("--out", metavar="DIR", help="also write CSV and JSON here")
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="write the figure of the alerts by cause per 100 km, with 95%% intervals, here",
+    )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="also write CSV (the tables, and the rates by cause with their intervals) and "
+        "JSON here",
+    )
     return p
 
 
@@ -85,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         save_figure_atomic(study.figure(), args.plot)
         print(f"wrote {args.plot}")
     if out is not None:
+        tables["world_cause_rates"] = study.cause_rates()
         for stem, t in tables.items():
             write_csv_atomic(out / f"{stem}.csv", t.columns, t.rows)
         write_summary(

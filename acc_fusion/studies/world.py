@@ -33,6 +33,18 @@ SCENE_COLUMNS = (
 )  # fmt: skip
 #: The columns of :meth:`WorldStudy.causes`.
 CAUSE_COLUMNS = ("conditions", "method", "class", *CAUSES, "per_100km")
+#: The columns of :meth:`WorldStudy.cause_rates`.
+CAUSE_RATE_COLUMNS = ("conditions", "method", "class", "cause", "warnings", "km", "per_100km",
+                      "per_100km_lo", "per_100km_hi")  # fmt: skip
+#: The classes that :meth:`WorldStudy.causes` breaks down (a crash-relevant warning has no
+#: false cause).
+FALSE_CLASSES = ("nuisance", "sensing_false")
+#: The note under the tables by cause.
+CAUSE_NOTE = (
+    "cause: what the selected object was in truth at the warning's onset; lead = the true "
+    "in-path lead (a nuisance: the rule fired on the right target); noise = a sensing-false "
+    "warning on the true lead (the target was right, its estimate was not)"
+)
 
 
 @dataclass
@@ -81,16 +93,30 @@ class WorldStudy:
         warnings by cause, and each class's rate per 100 km (exact Poisson interval)."""
         t = Table(f"Nuisance and sensing-false alerts by cause, {self.where}", CAUSE_COLUMNS)
         for (label, m), (counts, km) in self.pooled().items():
-            for c in ("nuisance", "sensing_false"):
+            for c in FALSE_CLASSES:
                 total = sum(counts[c].values())
                 t.rows.append(
                     {"conditions": label, "method": m, "class": c, **counts[c],
                      "per_100km": Rate.poisson(total, km / 100.0).format(".3g")}
                 )  # fmt: skip
-        t.notes.append(
-            "cause: what the selected object was in truth at the warning's onset; lead = the "
-            "true in-path lead (the warning's target was right: the rule or its estimate was not)"
-        )
+        t.notes.append(CAUSE_NOTE)
+        return t
+
+    def cause_rates(self) -> Table:
+        """:meth:`causes` as rates: one row per condition, method, class and cause, its
+        warnings per 100 km with the exact Poisson 95 % interval (an upper bound where
+        none was counted)."""
+        t = Table(f"Alerts by cause per 100 km, {self.where}, 95% intervals", CAUSE_RATE_COLUMNS)
+        for (label, m), (counts, km) in self.pooled().items():
+            for c in FALSE_CLASSES:
+                for cause, k in counts[c].items():
+                    rate = Rate.poisson(k, km / 100.0)
+                    t.rows.append(
+                        {"conditions": label, "method": m, "class": c, "cause": cause,
+                         "warnings": k, "km": round(km, 3), "per_100km": rate.value,
+                         "per_100km_lo": rate.lo, "per_100km_hi": rate.hi}
+                    )  # fmt: skip
+        t.notes.append(CAUSE_NOTE)
         return t
 
     def classes(self) -> list[Table]:
@@ -100,33 +126,36 @@ class WorldStudy:
                 for (scene, label), summaries in self.results.items()]  # fmt: skip
 
     def figure(self):
-        """Stacked bars: the nuisance and sensing-false warnings of each method by cause, one
-        panel per condition."""
-        pooled = self.pooled()
-        labels = list(dict.fromkeys(label for label, _ in pooled))
-        methods = list(self.config.methods)
-        fig, axes = plt.subplots(1, len(labels), figsize=(4.2 * len(labels), 3.8), squeeze=False)
-        colors = plt.get_cmap("tab10")
-        for ax, label in zip(axes[0], labels, strict=True):
-            bottom = np.zeros(len(methods))
-            for j, cause in enumerate(CAUSES):
-                height = np.array([
-                    pooled[(label, m)][0]["nuisance"][cause]
-                    + pooled[(label, m)][0]["sensing_false"][cause]
-                    for m in methods
-                ])  # fmt: skip
-                ax.bar(methods, height, bottom=bottom, label=cause, color=colors(j))
-                bottom += height
-            for tick, m in zip(ax.get_xticklabels(), methods, strict=True):
-                tick.set_color(method_color(m))
-            ax.set_title(label)
-            ax.set_ylim(bottom=0)
-            ax.set_ylabel("nuisance + sensing-false warnings")
-            ax.tick_params(axis="x", rotation=30)
+        """Nuisance (top row) and sensing-false (bottom row) warnings per 100 km by cause, a
+        bar per method with its exact Poisson 95 % interval, one column per condition; a
+        cause no method showed in a row is left out of it."""
+        rows = self.cause_rates().rows
+        labels = list(dict.fromkeys(r["conditions"] for r in rows))
+        methods = list(dict.fromkeys(r["method"] for r in rows))
+        at = {(r["conditions"], r["method"], r["class"], r["cause"]): r for r in rows}
+        fig, axes = plt.subplots(len(FALSE_CLASSES), len(labels), squeeze=False, sharey="row",
+                                 figsize=(1.2 + 4.4 * len(labels), 7.0))  # fmt: skip
+        width = 0.8 / max(len(methods), 1)
+        for i, c in enumerate(FALSE_CLASSES):
+            shown = [k for k in CAUSES if any(r["warnings"] for r in rows
+                                              if r["class"] == c and r["cause"] == k)]  # fmt: skip
+            for ax, label in zip(axes[i], labels, strict=True):
+                for j, m in enumerate(methods):
+                    cells = [at[(label, m, c, k)] for k in shown]
+                    value = np.array([r["per_100km"] for r in cells])
+                    err = np.array([[v - r["per_100km_lo"], r["per_100km_hi"] - v]
+                                    for v, r in zip(value, cells, strict=True)]).T  # fmt: skip
+                    x = np.arange(len(shown)) + (j - (len(methods) - 1) / 2) * width
+                    ax.bar(x, value, width, yerr=err.reshape(2, -1), capsize=2, label=m,
+                           color=method_color(m))  # fmt: skip
+                ax.set_xticks(np.arange(len(shown)), shown, rotation=30)
+                ax.set_title(f"{c.replace('_', '-')}, {label}", fontsize=10)
+                ax.set_ylim(bottom=0)
+            axes[i][0].set_ylabel("warnings per 100 km")
         handles, names = axes[0][0].get_legend_handles_labels()
-        fig.legend(handles, names, title="cause", fontsize=8, loc="center right")
-        fig.suptitle(f"False and nuisance alerts by cause, {self.config.runs} runs per scene")
-        fig.tight_layout(rect=(0.0, 0.0, 0.9, 1.0))
+        fig.legend(handles, names, title="method", fontsize=8, loc="center right")
+        fig.suptitle(f"Nuisance and sensing-false alerts by cause, {self.where}, 95% intervals")
+        fig.tight_layout(rect=(0.0, 0.0, 0.88, 1.0))
         return fig
 
 

@@ -237,13 +237,15 @@ def curve_adjacent(n: int, rng: np.random.Generator) -> Scene:
 
 
 def cut_in(n: int, rng: np.random.Generator) -> Scene:
-    """A car in the left lane, 30-45 m ahead and 2-5 m/s slower than the ego (25 m/s),
-    changes into the ego lane after 1-2 s, taking 2-3 s."""
+    """A car in the left lane, 15-30 m ahead and 2-5 m/s slower than the ego (25 m/s),
+    changes into the ego lane after 0.5-1.5 s, taking 2-3 s: a close cut-in (a time gap of
+    0.6-1.2 s; assumption), some of them crash-relevant, some a nuisance, and some warned on
+    while the car is still crossing into the lane (the cut-in mis-selection)."""
     road = Road()
     v = np.full(n, 25.0)
-    car = {"kind": ObjectKind.VEHICLE, "s0": _u(rng, 30.0, 45.0, n),
+    car = {"kind": ObjectKind.VEHICLE, "s0": _u(rng, 15.0, 30.0, n),
            "v0": v - _u(rng, 2.0, 5.0, n), "d0": LANE_WIDTH, "d1": 0.0,
-           "lc_time": _u(rng, 1.0, 2.0, n), "lc_duration": _u(rng, 2.0, 3.0, n)}  # fmt: skip
+           "lc_time": _u(rng, 0.5, 1.5, n), "lc_duration": _u(rng, 2.0, 3.0, n)}  # fmt: skip
     return Scene("cut_in", road, _actors(n, [car, *_guardrail(n, road)]),
                  v, v + 2.0, np.full(n, 1.5), 10.0)  # fmt: skip
 
