@@ -51,11 +51,17 @@ Resolution
     one range-Doppler-beam cell and are not separated: they merge (single linkage, in order of
     range) into one return with the summed SNR at the SNR-weighted mean position and
     range-rate, credited to its strongest member.  Detection is decided on the merged SNR.
+    That unresolved targets yield one measurement between them is the point of F. E. Daum and
+    R. J. Fitzgerald, "Importance of resolution in multiple-target tracking", Proc. SPIE 2235
+    (1994); the single linkage and the SNR-weighted centroid are our assumptions (the
+    simplest rule that merges only what the three cells cannot separate).
 
 Clutter
     A Poisson number of false detections, mean ``clutter_rate`` per ego and scan, uniform in
-    range and azimuth over the coverage and stationary (:func:`~acc_fusion.sensors.scan.
-    stationary_clutter`), ``origin`` :data:`CLUTTER`.
+    range and azimuth over the coverage (the standard clutter model of target tracking:
+    Y. Bar-Shalom, P. K. Willett and X. Tian, *Tracking and Data Fusion*, YBS Publishing,
+    2011) and stationary (an assumption: the roadside returns that cause FCW false alarms;
+    :func:`~acc_fusion.sensors.scan.stationary_clutter`), ``origin`` :data:`CLUTTER`.
 
 Sources: M. A. Richards, *Fundamentals of Radar Signal Processing*, McGraw-Hill, 2005;
 M. I. Skolnik, *Introduction to Radar Systems*, 3rd ed., McGraw-Hill, 2001; M. Buhren,

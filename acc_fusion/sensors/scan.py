@@ -101,9 +101,10 @@ def stationary_clutter(
     half_fov: float,
 ) -> Returns:
     r"""False detections: a Poisson number of mean ``rate`` per ego and scan, each uniform in
-    range over ``range_limits`` [m] and in azimuth over :math:`\pm` ``half_fov`` [rad], and
-    stationary (range-rate :math:`-v_{\mathrm{ego}}\cos\theta`, like the roadside returns that
-    cause FCW false alarms); ``object_id`` -1, ``origin`` :data:`CLUTTER`."""
+    range over ``range_limits`` [m] and in azimuth over :math:`\pm` ``half_fov`` [rad] (the
+    standard clutter model: Bar-Shalom, Willett and Tian, *Tracking and Data Fusion*, 2011),
+    and stationary (range-rate :math:`-v_{\mathrm{ego}}\cos\theta`, like the roadside returns
+    that cause FCW false alarms; assumption); ``object_id`` -1, ``origin`` :data:`CLUTTER`."""
     counts = rng.poisson(rate, ego_speed.shape[0])
     ego = np.repeat(np.arange(ego_speed.shape[0]), counts)
     r = rng.uniform(*range_limits, ego.size)

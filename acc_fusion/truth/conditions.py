@@ -22,7 +22,8 @@ class Conditions:
     Attributes:
         light: ``"day"`` or ``"night"``.
         fog_visibility: meteorological optical range in fog [m], ``> 0``; ``inf`` is clear
-            air (fog is, by the WMO definition, visibility below 1 000 m).
+            air (fog is visibility below 1 000 m: WMO, *International Meteorological
+            Vocabulary*, WMO-No. 182, 1992).
         rain_rate: rain intensity [mm/h], ``>= 0`` (0: dry).
     """
 
