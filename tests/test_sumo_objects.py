@@ -370,7 +370,9 @@ def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_
     data = json.loads((tmp_path / "sumo_world_motorway_seed0.json").read_text())
     for label in ("day", "night, fog 60 m"):
         assert_causes_add_up(data[label], label)
-    assert (tmp_path / "sumo_world_motorway_seed0_causes.csv").exists()
+    for name in ("causes.csv", "cause_rates.csv"):
+        assert (tmp_path / f"sumo_world_motorway_seed0_{name}").exists()
+    assert (tmp_path / "sumo_world_motorway_seed0_causes.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_conditions_need_the_world():
@@ -394,7 +396,8 @@ def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsy
     assert set(data["fcw_on"]) == {"federated"}  # the drivers heard the federated warnings
     for run in ("fcw_off", "fcw_on"):
         assert_causes_add_up(data[run], run)
-    assert (tmp_path / "sumo_motorway_seed0_causes.csv").exists()
+    for name in ("causes", "cause_rates"):
+        assert (tmp_path / f"sumo_motorway_seed0_{name}.csv").exists()
 
 
 @pytest.mark.parametrize(

@@ -226,6 +226,26 @@ def write_summary(out, name: str, payload: dict) -> None:
     print(f"wrote {out / name}")
 
 
+def report_world(study, out, stem: str, **fields) -> None:
+    """Print a 2-D world study's tables (:class:`~acc_fusion.studies.world.WorldStudy`: the
+    alerts by class of each run, then by cause) and, with ``out``, write each as CSV
+    (``stem``_classes_*i*.csv, ``stem``_causes.csv), the rates by cause with their intervals
+    (``stem``_cause_rates.csv) and their figure (``stem``_causes.png), and ``stem``.json
+    (``fields`` and every method's summary by conditions label) into ``out``."""
+    tables = {f"classes_{i}": t for i, t in enumerate(study.classes())}
+    tables["causes"] = study.causes()
+    print("\n\n".join(t.format() for t in tables.values()))
+    if out is None:
+        return
+    tables["cause_rates"] = study.cause_rates()
+    for name, t in tables.items():
+        write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
+    save_figure_atomic(study.figure(), out / f"{stem}_causes.png")
+    summaries = {label: {m: s.as_dict() for m, s in runs.items()}
+                 for (_, label), runs in study.results.items()}  # fmt: skip
+    write_summary(out, f"{stem}.json", {**fields, **summaries})
+
+
 def write_study(out, stem: str, table, study, **fields) -> None:
     """Write a traffic study (FCW off and on): ``stem``.csv (the table), ``stem``_classes.csv
     (the alert classes), .png (the rates of the FCW-off run) and .json (``fields`` and both

@@ -11,11 +11,11 @@ from acc_fusion.cli.common import (
     add_sim_arguments,
     add_traffic_arguments,
     positive_float,
+    report_world,
     sim_config,
     traffic_config,
     traffic_sim_config,
     write_study,
-    write_summary,
 )
 from acc_fusion.cli.world import parse_conditions
 from acc_fusion.core.errors import ConfigError
@@ -85,9 +85,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "'+', one SUMO run each (default: day)",
     )
     add_sim_arguments(p, None)
-    p.add_argument(
-        "--out", metavar="DIR", help="also write CSV, PNG and JSON here (--world: CSV and JSON)"
-    )
+    p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
     return p
 
 
@@ -101,23 +99,8 @@ def run_world(args: argparse.Namespace, path, sumo_cfg, conditions) -> int:
         )
     out = output_dir(args.out) if args.out else None
     study = sumo_world_study(sumo_cfg, sim, conditions, progress=True)
-    tables = {f"sumo_world_classes_{i}": t for i, t in enumerate(study.classes())}
-    tables["sumo_world_causes"] = study.causes()
-    print("\n\n".join(t.format() for t in tables.values()))
-    if out is not None:
-        stem = f"sumo_world_{path.stem}_seed{sumo_cfg.seed}"
-        for name, t in tables.items():
-            write_csv_atomic(out / f"{name.replace('sumo_world', stem)}.csv", t.columns, t.rows)
-        write_summary(
-            out,
-            f"{stem}.json",
-            {
-                "sumocfg": str(path),
-                "seed": sumo_cfg.seed,
-                **{label: {m: s.as_dict() for m, s in summaries.items()}
-                   for (_, label), summaries in study.results.items()},
-            },
-        )  # fmt: skip
+    stem = f"sumo_world_{path.stem}_seed{sumo_cfg.seed}"
+    report_world(study, out, stem, sumocfg=str(path), seed=sumo_cfg.seed)
     return 0
 
 
@@ -147,19 +130,20 @@ def run(args: argparse.Namespace) -> int:
     study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=args.world)
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())
-    causes = None
+    world = None
     if args.world:
         runs = {(path.stem, conditions[0].label): study.off.summaries}
-        causes = WorldStudy(sim, runs, where=f"SUMO {path.stem}, FCW off").causes()
-        print("\n" + causes.format())
+        world = WorldStudy(sim, runs, where=f"SUMO {path.stem}, FCW off")
+        print("\n" + world.causes().format())
     print("\n" + study.benefits().format())
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
     if out is not None:
         stem = f"sumo_{path.stem}_seed{sumo_cfg.seed}"
-        if causes is not None:
-            write_csv_atomic(out / f"{stem}_causes.csv", causes.columns, causes.rows)
+        if world is not None:
+            for name, t in (("causes", world.causes()), ("cause_rates", world.cause_rates())):
+                write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
         write_study(
             out,
             stem,

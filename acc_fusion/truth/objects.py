@@ -251,3 +251,54 @@ class ObjectFrame:
             np.where(has, self.object_id[e, k], -1),
             pick(self.y),
         )
+
+
+class SlotWorld:
+    """The part of a 2-D world source that is its slot source's (``self.source``, e.g. a
+    :class:`~acc_fusion.truth.sumo.source.SumoSource`): the egos are the source's slots,
+    and their state — which drive, collided, took a new vehicle, the time, the end — is the
+    source's.  :class:`~acc_fusion.truth.sumo.world.SumoWorld` and
+    :class:`~acc_fusion.truth.highway.world.HighwayWorld` add the object frame and the
+    driving."""
+
+    source: object
+
+    @property
+    def slotted(self) -> bool:
+        """Its egos are the source's slots (:mod:`acc_fusion.core.slots`)."""
+        return getattr(self.source, "slotted", False)
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(E,)`` slots holding a driving vehicle now."""
+        return self.source.active
+
+    @property
+    def collided(self) -> np.ndarray:
+        """``(E,)`` slots whose vehicle ran into another."""
+        return self.source.collided
+
+    @property
+    def collision_speed(self) -> np.ndarray:
+        """``(E,)`` impact speed [m/s] of each slot's collision (NaN where none)."""
+        return self.source.collision_speed
+
+    @property
+    def reassigned(self) -> np.ndarray:
+        """``(E,)`` slots that got a new vehicle at this step."""
+        return self.source.reassigned
+
+    @property
+    def t(self) -> float:
+        """Simulation time [s]."""
+        return self.source.t
+
+    @property
+    def done(self) -> bool:
+        """The source reached its end (or was closed)."""
+        return self.source.done
+
+    @property
+    def n_steps(self) -> int:
+        """Steps from the begin to the end (an upper bound where episodes may end early)."""
+        return self.source.n_steps

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.truth.objects import ObjectFrame
+from acc_fusion.truth.objects import ObjectFrame, SlotWorld
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects
 from acc_fusion.truth.sumo.source import SumoSource
 
 
-class SumoWorld:
+class SumoWorld(SlotWorld):
     """A SUMO source as the truth source of :func:`acc_fusion.sim.world.simulate_world`: its
     slots are the egos, their objects :class:`SumoObjects`' frame; a slot that a new vehicle
     took (``reassigned``) starts afresh in every stage of the pipeline.  It drives as the
@@ -72,11 +72,6 @@ class SumoWorld:
         self.source.advance(ego_brake, hold)
 
     @property
-    def slotted(self) -> bool:
-        """Its egos are the source's slots (:mod:`acc_fusion.core.slots`)."""
-        return getattr(self.source, "slotted", False)
-
-    @property
     def accepts_brakes(self) -> bool:
         """It takes brake requests when its source does."""
         return getattr(self.source, "accepts_brakes", True)
@@ -90,38 +85,3 @@ class SumoWorld:
     def vehicle_ids(self) -> list[str | None]:
         """The vehicle id of each slot (``None`` where empty)."""
         return self.source.vehicle_ids
-
-    @property
-    def collision_speed(self) -> np.ndarray:
-        """``(E,)`` impact speed [m/s] of each slot's collision (NaN where none)."""
-        return self.source.collision_speed
-
-    @property
-    def active(self) -> np.ndarray:
-        """``(E,)`` slots holding an equipped vehicle now."""
-        return self.source.active
-
-    @property
-    def collided(self) -> np.ndarray:
-        """``(E,)`` slots whose vehicle ran into another."""
-        return self.source.collided
-
-    @property
-    def reassigned(self) -> np.ndarray:
-        """``(E,)`` slots that got a new vehicle at this step."""
-        return self.source.reassigned
-
-    @property
-    def t(self) -> float:
-        """Simulation time [s]."""
-        return self.source.t
-
-    @property
-    def done(self) -> bool:
-        """SUMO reached its end (or was closed)."""
-        return self.source.done
-
-    @property
-    def n_steps(self) -> int:
-        """Steps from the begin to the end time."""
-        return self.source.n_steps
