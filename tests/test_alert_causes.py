@@ -47,8 +47,9 @@ def test_without_causes_the_summary_has_none_and_its_dict_no_key():
     assert "by_cause" not in s.as_dict()
 
 
-def test_a_cause_out_of_range_is_one_error():
+@pytest.mark.parametrize("bad", [len(CAUSES), -2, CAUSES.index("noise")])
+def test_a_cause_out_of_range_or_noise_at_onset_is_one_error(bad):
     m = FCWMetrics(1, 0.1)
     with pytest.raises(InputError, match="cause"):
         m.update(0.0, np.zeros(1, np.int8), np.zeros(1, np.int8), np.full(1, np.inf),
-                 np.ones(1), np.ones(1, bool), cause=np.array([len(CAUSES)]))  # fmt: skip
+                 np.ones(1), np.ones(1, bool), cause=np.array([bad]))  # fmt: skip

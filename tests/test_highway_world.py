@@ -379,6 +379,22 @@ def test_brake_requests_reach_the_slots_vehicles():
         assert world.t == pytest.approx(src.dt) and world.n_steps == src.n_steps
 
 
+def test_a_restarted_episode_gets_its_own_frame_at_the_same_time():
+    """``restart`` starts a new episode without advancing the time: the frame is the new
+    episode's, its ego motion starting afresh."""
+    cfg = HighwayConfig("highway-fast-v0", episodes=3, duration=2.0, vehicles_count=3)
+    with HighwaySource(cfg) as src:
+        world = HighwayWorld(src)
+        world.advance()
+        before = world.frame()
+        src.restart(np.ones(src.n_pairs, dtype=bool), 7)
+        after = world.frame()
+        assert after is not before and after.t == before.t
+        speeds = [v.speed for v in src.vehicles]
+        np.testing.assert_allclose(after.ego_speed[: len(speeds)], speeds)
+        assert not after.ego_yaw_rate.any() and not after.ego_accel.any()
+
+
 def test_highway_world_command_prints_and_writes_the_tables(tmp_path, capsys):
     args = ["highway", "--world", "--env", "highway-fast-v0", "--episodes", "1", "--duration",
             "2", "--vehicles", "3", "--conditions", "day", "night+fog=60",

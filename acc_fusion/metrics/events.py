@@ -254,9 +254,10 @@ class FCWMetrics(PairState):
             collided: pairs that collided at this step (default: none).
             relevant: pairs in a crash-relevant situation in truth at this step
                 (:func:`acc_fusion.metrics.alert_classes.crash_relevant`; default: none).
-            cause: (N,) index into :data:`CAUSES` of what the system warns on at this step
-                (read at a warning's onset; the warning's class is counted under it when it
-                ends); default: no causes.
+            cause: (N,) index into :data:`CAUSES` of what the system warns on at this step,
+                or -1 for none (read at a warning's onset; the warning's class is counted
+                under it when it ends; never ``noise``, which the class gives); default: no
+                causes.
         """
         t = self._check_time(t)
         n = self.n_pairs
@@ -276,9 +277,14 @@ class FCWMetrics(PairState):
         self._last_t = t
         if cause is not None:
             cause = np.asarray(cause)
-            if cause.shape != (n,) or cause.dtype.kind not in "iu" or (cause >= len(CAUSES)).any():
+            if (
+                cause.shape != (n,)
+                or cause.dtype.kind not in "iu"
+                or ((cause < -1) | (cause >= len(CAUSES)) | (cause == _NOISE)).any()
+            ):
                 raise InputError(
-                    f"cause must be an integer array of shape ({n},) of CAUSES indices"
+                    f"cause must be an integer array of shape ({n},) of CAUSES indices, or -1 "
+                    "for none (noise is given by a warning's class, not at its onset)"
                 )
             self._causes_given = True
             before = self._pair_counts[self._cause_rows]

@@ -92,23 +92,30 @@ def alert_cause(
     lead_id = frame.lead_frame().leader_id if lead_id is None else lead_id
     ids = (broadcast("truth_id", truth_id, (n,), np.int64),
            broadcast("lead_id", lead_id, (n,), np.int64))  # fmt: skip
-    out = np.empty(n, dtype=np.int64)
-    _cause(frame.valid, frame.object_id, frame.kind, frame.lateral_speed, *ids, out)
-    return out
+    code = np.empty(n, dtype=np.int64)
+    _cause(frame.valid, frame.object_id, frame.kind, frame.lateral_speed, *ids, _STILL_KINDS,
+           int(ObjectKind.VEHICLE), LANE_CHANGE_SPEED, code)  # fmt: skip
+    return _CODE_CAUSE[code]
 
 
-#: :data:`CAUSES` indices and kinds as the compiled :func:`_cause` takes them.
-_LEAD, _STATIONARY, _ADJACENT, _CUT, _GHOST = (
-    CAUSES.index(c) for c in ("lead", "stationary", "adjacent", "cut_in_out", "ghost")
+#: The causes :func:`_cause` tells apart, by its codes 0-4 (given to it as codes, not as
+#: :data:`CAUSES` indices: a cached compiled kernel keeps the constants of other modules it
+#: was compiled with).
+_CODE_CAUSE = np.array(
+    [CAUSES.index(c) for c in ("lead", "stationary", "adjacent", "cut_in_out", "ghost")]
 )
-_STILL_KINDS = tuple(int(k) for k in STATIONARY_KINDS)
-_VEHICLE = int(ObjectKind.VEHICLE)
+_STILL_KINDS = np.array([int(k) for k in STATIONARY_KINDS], dtype=np.int8)
 
 
 @njit(cache=True)
-def _cause(valid, object_id, kind, lateral_speed, truth_id, lead_id, out):  # pragma: no cover
-    """:func:`alert_cause` of every ego into ``out``: the first valid slot holding the
-    object ``truth_id`` decides."""
+def _cause(
+    valid, object_id, kind, lateral_speed, truth_id, lead_id, still_kinds, vehicle, lane_change,
+    out,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`alert_cause` of every ego into ``out`` as codes 0-4 (lead, stationary,
+    adjacent, cut-in/out, ghost; :data:`_CODE_CAUSE`): the first valid slot holding the
+    object ``truth_id`` decides; ``still_kinds`` the stationary kinds, ``vehicle`` the
+    vehicle kind, ``lane_change`` the lateral speed [m/s] of a lane change."""
     for e in range(valid.shape[0]):
         wanted, k = truth_id[e], -1
         if wanted >= 0:
@@ -117,18 +124,18 @@ def _cause(valid, object_id, kind, lateral_speed, truth_id, lead_id, out):  # pr
                     k = j
                     break
         if k < 0:
-            out[e] = _GHOST
+            out[e] = 4
             continue
         still = False
-        for s in _STILL_KINDS:
+        for s in still_kinds:
             still = still or kind[e, k] == s
-        changing = kind[e, k] == _VEHICLE and abs(lateral_speed[e, k]) > LANE_CHANGE_SPEED
+        changing = kind[e, k] == vehicle and abs(lateral_speed[e, k]) > lane_change
         if wanted == lead_id[e] and not changing:
-            out[e] = _LEAD
+            out[e] = 0
         elif changing:
-            out[e] = _CUT
+            out[e] = 3
         else:
-            out[e] = _STATIONARY if still else _ADJACENT
+            out[e] = 1 if still else 2
 
 
 @dataclass

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+from matplotlib.patches import Patch
 from tqdm.auto import tqdm
 
 from acc_fusion.core.plots import method_color, plt
@@ -134,7 +135,7 @@ class WorldStudy:
         methods = list(dict.fromkeys(r["method"] for r in rows))
         at = {(r["conditions"], r["method"], r["class"], r["cause"]): r for r in rows}
         fig, axes = plt.subplots(len(FALSE_CLASSES), len(labels), squeeze=False, sharey="row",
-                                 figsize=(1.2 + 4.4 * len(labels), 7.0))  # fmt: skip
+                                 figsize=(max(1.2 + 4.4 * len(labels), 9.0), 7.0))  # fmt: skip
         width = 0.8 / max(len(methods), 1)
         for i, c in enumerate(FALSE_CLASSES):
             shown = [k for k in CAUSES if any(r["warnings"] for r in rows
@@ -149,11 +150,13 @@ class WorldStudy:
                     ax.bar(x, value, width, yerr=err.reshape(2, -1), capsize=2, label=m,
                            color=method_color(m))  # fmt: skip
                 ax.set_xticks(np.arange(len(shown)), shown, rotation=30)
+                if not shown:
+                    ax.text(0.5, 0.5, "none", ha="center", va="center", transform=ax.transAxes)
                 ax.set_title(f"{c.replace('_', '-')}, {label}", fontsize=10)
                 ax.set_ylim(bottom=0)
             axes[i][0].set_ylabel("warnings per 100 km")
-        handles, names = axes[0][0].get_legend_handles_labels()
-        fig.legend(handles, names, title="method", fontsize=8, loc="center right")
+        handles = [Patch(color=method_color(m), label=m) for m in methods]
+        fig.legend(handles=handles, title="method", fontsize=8, loc="center right")
         fig.suptitle(f"Nuisance and sensing-false alerts by cause, {self.where}, 95% intervals")
         fig.tight_layout(rect=(0.0, 0.0, 0.88, 1.0))
         return fig

@@ -12,8 +12,12 @@ highway-env's frame, read as right-handed
     world's mirror image.  A lane's ``direction_lateral`` (its direction turned by +90°) then
     points left, and in every supported environment lane ids grow to the left (lane ``k`` at
     :math:`y = 4k`): lane 0 is the rightmost, as SUMO's index 0, and ``merge-v0``'s ramp
-    (lane 2 of ``b→c``) joins from the left.  highway-env's IDM and MOBIL have no side
-    preference, so the mirror changes nothing but the ramp's side.
+    (lane 2 of ``b→c``) joins from the left.  highway-env means the other hand (its
+    ``LANE_RIGHT`` action moves to lane id + 1, its ``right_lane_reward`` rewards the highest
+    id, ``merge-v0``'s ramp is a right-hand on-ramp): in this world all of them are on the
+    left.  Its IDM and MOBIL have no side preference and the sensors none either, so the
+    mirror changes which side the ramp, the shoulder and its roadside objects are on, not
+    the traffic.
 
 The ego frame and the field
     Ego :math:`e` (a slot's vehicle) has heading :math:`u_e = (\cos\psi_e, \sin\psi_e)`, left
@@ -192,6 +196,7 @@ class HighwayWorld(SlotWorld):
         self.source, self.config = source, config
         n = source.n_pairs
         self._prev = self._now = (np.zeros(n), np.full(n, -1, np.int64), math.nan)
+        self._truth: object = None  # the source's frame the object frame was made of
         self._frame: ObjectFrame | None = None
         self._next_id = 0  # ids of fixed objects used so far (ROADSIDE_ID_BASE + k)
         self._start(source.env.road)
@@ -205,8 +210,9 @@ class HighwayWorld(SlotWorld):
         """The object frame of the current step (made once per step; module docstring)."""
         src = self.source
         truth = src.frame()
-        if self._frame is not None and self._frame.t == truth.t:
+        if truth is self._truth:  # the source's frame of this step (new at every step, reset)
             return self._frame
+        self._truth = truth
         road = src.env.road
         if road is not self._road:
             self._start(road)
