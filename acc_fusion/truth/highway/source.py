@@ -94,6 +94,7 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.highway.config import DEFAULT_DURATION, HighwayConfig, HighwayError, make_env
+from acc_fusion.truth.highway.lanes import LaneRows
 
 #: Largest gap [m] at which a newly crashed vehicle counts as having hit its leader.
 CONTACT_GAP = 0.5
@@ -138,9 +139,6 @@ class HighwaySource(SlotSource):
         self.config = cfg = config
         self.env = make_env(cfg, render)
         self._render = render
-        from highway_env.road.lane import SineLane, StraightLane
-
-        self._straight, self._sine = StraightLane, SineLane
         self.dt = 1.0 / float(self.env.config["simulation_frequency"])
         own = self.env.config.get("duration")
         self.duration = float(cfg.duration or own or DEFAULT_DURATION)
@@ -191,6 +189,27 @@ class HighwaySource(SlotSource):
     def vehicles(self) -> list:
         """The highway-env vehicle of each occupied slot, in slot order."""
         return list(self._slot_vehicles)
+
+    @property
+    def closed(self) -> bool:
+        """The run was closed (:meth:`close`)."""
+        return self._closed
+
+    @property
+    def road_ids(self) -> np.ndarray:
+        """``(V,)`` the integer id (``leader_id``) of each vehicle of ``env.road.vehicles``,
+        in its order (read-only view)."""
+        view = self._vint.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def slot_vehicle_index(self) -> np.ndarray:
+        """The index in ``env.road.vehicles`` of each occupied slot's vehicle, in slot order
+        (read-only view)."""
+        view = self._slot_vi.view()
+        view.flags.writeable = False
+        return view
 
     def id_of(self, vehicle: Any) -> int:
         """The integer id (``leader_id``) of a highway-env vehicle of the current episode."""
@@ -334,7 +353,7 @@ class HighwaySource(SlotSource):
         self._m = m
         self._was_crashed = np.zeros(m, dtype=bool)
         self._prev_speed: np.ndarray | None = None
-        self._lanes: dict[Any, np.ndarray | None] = {}  # the new road's lanes
+        self._lanes = LaneRows(road.network)  # the new road's lanes
         occupied = np.zeros(n, dtype=bool)
         occupied[: len(self._slot_vehicles)] = True
         self._occupied = occupied
@@ -362,62 +381,22 @@ class HighwaySource(SlotSource):
             leader_id=np.full(n, -1, dtype=np.int64),
         )
 
-    def _lane_params(self, lane_index: Any) -> np.ndarray | None:
-        """The straight or sine lane ``lane_index`` as one row (cached per episode): start
-        (x, y), direction (x, y), lateral direction (x, y), half width plus margin, length,
-        heading, then the sine's amplitude, pulsation and phase (0 for a straight lane);
-        ``None`` for any other lane type."""
-        row = self._lanes.get(lane_index, False)
-        if row is False:
-            lane = self.env.road.network.get_lane(lane_index)
-            row = None
-            if isinstance(lane, self._straight):
-                sine = isinstance(lane, self._sine)
-                row = np.array(
-                    [
-                        *lane.start,
-                        *lane.direction,
-                        *lane.direction_lateral,
-                        0.5 * lane.width + LANE_MARGIN,
-                        lane.length,
-                        lane.heading,
-                        lane.amplitude if sine else 0.0,
-                        lane.pulsation if sine else 0.0,
-                        lane.phase if sine else 0.0,
-                    ]
-                )
-            self._lanes[lane_index] = row
-        return row
-
     def _lane_coordinates(self, lanes: list, pos: np.ndarray) -> tuple[np.ndarray, ...]:
         """For each ego lane (``lanes``, K lane indices) and every vehicle position ``pos``
         ``(M, 2)``: the local coordinates ``s``, ``r`` on that lane, whether the vehicle is on
         it (``Road.neighbour_vehicles``' rule) and the lane's direction [rad] there, all
-        ``(K, M)``.  Straight and sine lanes are computed as arrays
-        (``StraightLane.local_coordinates``, ``SineLane.local_coordinates``), other lanes with
-        highway-env's own methods."""
-        rows = [self._lane_params(li) for li in lanes]
-        k, m = len(lanes), len(pos)
-        s, r, half = np.empty((k, m)), np.empty((k, m)), np.empty((k, m))
-        length, psi = np.empty((k, 1)), np.empty((k, m))
-        straight = [i for i, row in enumerate(rows) if row is not None]
-        if straight:
-            q = np.array([rows[i] for i in straight])
-            dx = pos[None, :, 0] - q[:, 0, None]
-            dy = pos[None, :, 1] - q[:, 1, None]
-            ss = dx * q[:, 2, None] + dy * q[:, 3, None]
-            s[straight] = ss
-            r[straight] = dx * q[:, 4, None] + dy * q[:, 5, None]
-            r[straight] -= q[:, 9, None] * np.sin(q[:, 10, None] * ss + q[:, 11, None])
-            half[straight] = q[:, 6, None]
-            length[straight, 0] = q[:, 7]
-            psi[straight] = q[:, 8, None]
-        for i in (i for i, row in enumerate(rows) if row is None):
-            lane = self.env.road.network.get_lane(lanes[i])
-            s[i], r[i] = np.array([lane.local_coordinates(p) for p in pos], dtype=float).T
+        ``(K, M)`` (:class:`~acc_fusion.truth.highway.lanes.LaneRows`: straight and sine lanes
+        as arrays, their base's direction; other lanes by highway-env's own methods)."""
+        rows = np.array([self._lanes.row(li) for li in lanes], dtype=np.intp)
+        s, r = self._lanes.local(rows[:, None], pos[None, :, 0], pos[None, :, 1])
+        k, m = s.shape
+        half = np.repeat(0.5 * self._lanes.width(rows)[:, None] + LANE_MARGIN, m, axis=1)
+        psi = np.repeat(self._lanes.base_heading(rows)[:, None], m, axis=1)
+        for i in np.flatnonzero(self._lanes.other(rows)):
+            lane = self._lanes.lanes[rows[i]]
             half[i] = [0.5 * lane.width_at(x) + LANE_MARGIN for x in s[i]]
             psi[i] = [lane.heading_at(x) for x in s[i]]
-            length[i, 0] = lane.length
+        length = self._lanes.length(rows)[:, None]
         on = (np.abs(r) <= half) & (s >= -LANE_OVERHANG) & (s < length + LANE_OVERHANG)
         return s, r, on, psi
 

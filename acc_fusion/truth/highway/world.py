@@ -59,14 +59,11 @@ Lateral speed, lead, ego motion
     ``ego_yaw_rate`` is :math:`\operatorname{wrap}(\psi_k - \psi_{k-1}) / (t_k - t_{k-1})` of
     the same vehicle in the slot (0 at its first frame: a new episode), so
     :meth:`HighwayWorld.frame` is meant to be called after every step.  ``road_curvature``
-    is the ego lane's at the ego's lane coordinate :math:`s`: 0 on a ``StraightLane``; on a
-    ``SineLane``, the graph :math:`r(s) = A\sin(\omega s + \varphi)` over its base line, the
-    curvature of a plane graph :math:`\kappa = r''/(1 + r'^2)^{3/2}` (e.g. M. P. do Carmo,
-    *Differential Geometry of Curves and Surfaces*, 1976, ch. 1), i.e.
-    :math:`-A\omega^2\sin(\omega s + \varphi) / (1 + A^2\omega^2\cos^2(\omega s +
-    \varphi))^{3/2}` (0 beyond its ends); on a ``CircularLane`` :math:`\delta / R` (its
-    ``direction`` :math:`\delta` is +1 turning left in this frame); on any other lane the
-    change of ``heading_at`` over ``CURVATURE_WINDOW`` (:mod:`acc_fusion.truth.sumo.roadside`).
+    is the ego lane's at the ego's lane coordinate :math:`s`
+    (:meth:`~acc_fusion.truth.highway.lanes.LaneRows.curvature`: 0 on a ``StraightLane``,
+    the curvature of the sine graph on a ``SineLane``, ``direction / radius`` on a
+    ``CircularLane``, left positive in this frame).  Lane coordinates are highway-env's, a
+    lane extended along its base beyond its ends (``clip``).
 
 Road objects
     highway-env's solid ``road.objects`` (``merge-v0``'s ``Obstacle`` closing the
@@ -103,12 +100,12 @@ from typing import Any
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.truth.highway.lanes import LaneRows, wrap_angle
 from acc_fusion.truth.highway.source import HighwaySource
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind, SlotWorld
 from acc_fusion.truth.scenes import SIGNATURES
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.truth.sumo.roadside import (
-    CURVATURE_WINDOW,
     ROADSIDE_ID_BASE,
     LaneTable,
     Roadside,
@@ -120,9 +117,6 @@ from acc_fusion.truth.sumo.roadside import (
 #: segment whatever its speed limit (module docstring).
 DEFAULT_FIELD = ObjectFieldConfig(roadside=RoadsideConfig(min_speed=0.0))
 
-#: Lane row types; a row is: type, start (2), direction (2), lateral direction (2),
-#: amplitude, pulsation, phase, length, base heading, width.
-_STRAIGHT, _SINE, _OTHER = 0.0, 1.0, 2.0
 #: Segment code of roadside objects (``lane`` OFF_ROAD) and of objects on no lane.
 _ROADSIDE, _NO_LANE = -2, -1
 #: Height [m], RCS [dBsm], thermal contrast [K] of vehicles and road objects (docstring).
@@ -132,31 +126,6 @@ _ON_GROUND = np.array([ObjectKind.GUARDRAIL, ObjectKind.PARKED], dtype=np.int8)
 #: Object arrays copied into the frame as they are.
 _PASS = ("speed", "accel", "length", "width", "height", "elevation", "rcs", "thermal_contrast",
          "lateral_speed")  # fmt: skip
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Angles wrapped to (-pi, pi]."""
-    return np.arctan2(np.sin(a), np.cos(a))
-
-
-def _coords(rows: np.ndarray, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    r"""Lane coordinates :math:`(s, r)` of points on straight and sine lane ``rows``
-    (broadcast): :math:`s = (p - a)\cdot d`, :math:`r = (p - a)\cdot n - A\sin(\omega
-    \operatorname{clip}(s, 0, L) + \varphi)` (highway-env's ``local_coordinates``, the lane
-    extended along its base beyond its ends)."""
-    dx, dy = px - rows[..., 1], py - rows[..., 2]
-    s = dx * rows[..., 3] + dy * rows[..., 4]
-    bend = rows[..., 7] * np.sin(rows[..., 8] * np.clip(s, 0.0, rows[..., 10]) + rows[..., 9])
-    return s, dx * rows[..., 5] + dy * rows[..., 6] - bend
-
-
-def _sine_terms(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    r""":math:`r' = A\omega\cos(\omega s + \varphi)` and :math:`r'' = -A\omega^2\sin(\omega s
-    + \varphi)` of sine rows at ``s`` (0 beyond the ends and on straight rows)."""
-    on = (s >= 0.0) & (s <= rows[..., 10])
-    amp, w, phase = rows[..., 7], rows[..., 8], rows[..., 8] * s + rows[..., 9]
-    slope, bend = amp * w * np.cos(phase), -amp * w * w * np.sin(phase)
-    return np.where(on, slope, 0.0), np.where(on, bend, 0.0)
 
 
 class HighwayWorld(SlotWorld):
@@ -188,11 +157,8 @@ class HighwayWorld(SlotWorld):
             raise ConfigError(f"config must be an ObjectFieldConfig, got {type(config).__name__}")
         if not isinstance(source, HighwaySource):
             raise ConfigError(f"source must be a HighwaySource, got {type(source).__name__}")
-        if source._closed:
+        if source.closed:
             raise ConfigError("the highway-env source is closed; give an open one")
-        from highway_env.road.lane import CircularLane, SineLane, StraightLane
-
-        self._types = (StraightLane, SineLane, CircularLane)
         self.source, self.config = source, config
         n = source.n_pairs
         self._prev = self._now = (np.zeros(n), np.full(n, -1, np.int64), math.nan)
@@ -219,7 +185,7 @@ class HighwayWorld(SlotWorld):
         vs, n, nv = road.vehicles, src.n_pairs, len(road.vehicles)
         st = np.array([(*v.position, v.heading, v.speed, v.LENGTH, v.WIDTH) for v in vs])
         seg, lid, row = np.array([self._lane_of(v.lane_index) for v in vs], np.int64).T
-        s, _ = self._local(row, st[:, 0], st[:, 1])
+        s, _ = self._lanes.local(row, st[:, 0], st[:, 1], clip=True)
         speed = st[:, 3]
         accel = np.zeros(nv)
         if self._speed is not None and truth.t > self._speed[1]:
@@ -229,17 +195,18 @@ class HighwayWorld(SlotWorld):
                "length": st[:, 4], "width": st[:, 5], "height": np.full(nv, _CAR[0]),
                "elevation": np.zeros(nv), "rcs": np.full(nv, _CAR[1]),
                "thermal_contrast": np.full(nv, _CAR[2]), "seg": seg, "lid": lid, "row": row,
-               "lateral_speed": speed * np.sin(st[:, 2] - self._heading(row, s)), "id": src._vint,
+               "lateral_speed": speed * np.sin(st[:, 2] - self._lanes.heading(row, s)),
+               "id": src.road_ids,
                "kind": np.full(nv, int(ObjectKind.VEHICLE), np.int8)}  # fmt: skip
         obj = {k: np.concatenate([v, self._fixed[k]]) for k, v in veh.items()}
         slots = np.flatnonzero(src.active)
-        vi = src._slot_vi[slots]
+        vi = src.slot_vehicle_index[slots]
         out = self._objects(obj, vi, slots, n, truth.leader_id[slots])
         ego = np.zeros((3, n))  # heading, speed, curvature
         ids = np.full(n, -1, np.int64)
         ids[slots] = obj["id"][vi]
         ego[0, slots], ego[1, slots] = obj["psi"][vi], np.maximum(speed[vi], 0.0)
-        ego[2, slots] = self._curvature(row[vi], s[vi])
+        ego[2, slots] = self._lanes.curvature(row[vi], s[vi])
         self._frame = ObjectFrame(
             t=truth.t, ego_speed=ego[1], ego_accel=truth.ego_accel, road_curvature=ego[2],
             ego_yaw_rate=self._yaw_rate(truth.t, ego[0], ids), **out,
@@ -270,16 +237,16 @@ class HighwayWorld(SlotWorld):
         mask &= cand[None, :] != vi[:, None]
         # Relative lane: lane ids on the ego's segment, else the offset in the ego's lane.
         erow = obj["row"][vi]
-        _, r_o = self._local(erow[:, None], o["x"], o["y"])
-        _, r_e = self._local(erow, obj["x"][vi], obj["y"][vi])
-        offset = np.rint((r_o - r_e[:, None]) / self._rows[erow, 12, None]).astype(np.int64)
+        _, r_o = self._lanes.local(erow[:, None], o["x"], o["y"], clip=True)
+        _, r_e = self._lanes.local(erow, obj["x"][vi], obj["y"][vi], clip=True)
+        offset = np.rint((r_o - r_e[:, None]) / self._lanes.width(erow)[:, None]).astype(np.int64)
         same = (o["seg"] >= 0) & (o["seg"] == obj["seg"][vi][:, None])
         lane = np.where(same, o["lid"] - obj["lid"][vi][:, None], offset)
         lane = np.where(o["seg"] == _ROADSIDE, OFF_ROAD, lane)
         dpsi = o["psi"] - psi_e[:, None]
         v_e = np.maximum(obj["speed"][vi], 0.0)[:, None]
         per = {"x": x, "y": y, "vx": o["speed"] * np.cos(dpsi) - v_e,
-               "vy": o["speed"] * np.sin(dpsi), "heading": _wrap(dpsi)}  # fmt: skip
+               "vy": o["speed"] * np.sin(dpsi), "heading": wrap_angle(dpsi)}  # fmt: skip
         per.update({name: np.broadcast_to(o[name], x.shape) for name in _PASS})
         # Each ego's objects first; M the largest count.
         m = int(mask.sum(axis=1).max(initial=0))
@@ -311,7 +278,7 @@ class HighwayWorld(SlotWorld):
         same = (ids >= 0) & (ids == prev_id) & (t > prev_t)
         dt = t - prev_t if same.any() else 1.0
         self._now = (heading, ids, t)
-        return np.where(same, _wrap(heading - prev_heading) / dt, 0.0)
+        return np.where(same, wrap_angle(heading - prev_heading) / dt, 0.0)
 
     # ---------------------------------------------------------------- lanes
     def _lane_of(self, index: Any) -> tuple[int, int, int]:
@@ -325,67 +292,14 @@ class HighwayWorld(SlotWorld):
             left = len(lanes) < 2 or lanes[0].local_coordinates(lanes[1].position(0, 0))[1] > 0
             self._segments[f, t] = (len(self._segments), 1 if left else -1)
         code, sign = self._segments[f, t]
-        if index not in self._row_of:
-            self._add_row(index)
-        return code, sign * int(i), self._row_of[index]
-
-    def _add_row(self, index: Any) -> None:
-        """Append lane ``index``'s row to ``_rows`` (rows are per episode)."""
-        lane = self._road.network.get_lane(index)
-        straight, sine, _ = self._types
-        row = np.zeros(13)
-        kind = _SINE if isinstance(lane, sine) else _STRAIGHT
-        row[0] = kind if isinstance(lane, straight) else _OTHER
-        row[10], row[12] = lane.length, lane.width_at(0.0)
-        if row[0] != _OTHER:
-            row[1:7] = (*lane.start, *lane.direction, *lane.direction_lateral)
-            row[11] = lane.heading
-        if row[0] == _SINE:
-            row[7:10] = (lane.amplitude, lane.pulsation, lane.phase)
-        self._row_of[index] = len(self._lanes)
-        self._lanes.append(lane)
-        self._rows = np.vstack([self._rows, row])
-
-    def _local(self, row: np.ndarray, px: np.ndarray, py: np.ndarray):
-        """Lane coordinates ``s, r`` of points ``(px, py)`` on lane rows ``row`` (broadcast);
-        other lane types by highway-env's own ``local_coordinates``."""
-        row, px, py = np.broadcast_arrays(row, px, py)
-        s, r = _coords(self._rows[row], px, py)
-        for k in zip(*np.nonzero(self._rows[row, 0] == _OTHER), strict=True):
-            s[k], r[k] = self._lanes[row[k]].local_coordinates(np.array([px[k], py[k]]))
-        return s, r
-
-    def _heading(self, row: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """Heading [rad] of lane rows ``row`` at ``s``: base + arctan r' (paired)."""
-        rows = self._rows[row]
-        out = rows[:, 11] + np.arctan(_sine_terms(rows, s)[0])
-        for k in np.flatnonzero(rows[:, 0] == _OTHER):
-            out[k] = self._lanes[row[k]].heading_at(s[k])
-        return out
-
-    def _curvature(self, row: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """Curvature [1/m] of lane rows ``row`` at ``s``, left positive (module docstring)."""
-        rows = self._rows[row]
-        slope, bend = _sine_terms(rows, s)
-        out = bend / (1.0 + slope**2) ** 1.5
-        h = 0.5 * CURVATURE_WINDOW
-        for k in np.flatnonzero(rows[:, 0] == _OTHER):
-            lane = self._lanes[row[k]]
-            if isinstance(lane, self._types[2]):
-                out[k] = lane.direction / lane.radius
-            else:
-                out[k] = _wrap(lane.heading_at(s[k] + h) - lane.heading_at(s[k] - h)) / (2 * h)
-        return out
+        return code, sign * int(i), self._lanes.row(index)
 
     # ---------------------------------------------------------------- per episode
     def _start(self, road: Any) -> None:
         """A new episode's road: its lanes, road objects and roadside objects."""
         self._road, self._speed = road, None
         self._segments: dict[tuple[str, str], tuple[int, int]] = {}
-        self._row_of: dict[Any, int] = {}
-        self._lanes: list = [None]
-        self._rows = np.zeros((1, 13))  # row 0: objects on no lane, the x axis, width 1
-        self._rows[0, [3, 6, 12]] = 1.0
+        self._lanes = LaneRows(road.network)  # row 0: objects on no lane
         obs = [o for o in road.objects if getattr(o, "solid", True)]
         self.roadside = side = self._place(road)
         nr, no = len(side), len(obs)
@@ -415,11 +329,10 @@ class HighwayWorld(SlotWorld):
         src, cfg = self.source, self.config.roadside
         seq = np.random.SeedSequence((cfg.seed, src.config.seed, src.episode))
         right_seed, left_seed = (int(s) for s in seq.generate_state(2))
-        straight, sine, _ = self._types
         segments = []
         for f, tos in road.network.graph.items():
             for t, ls in tos.items():
-                if ls and all(isinstance(x, straight) and not isinstance(x, sine) for x in ls):
+                if ls and all(self._lanes.straight(x) for x in ls):
                     lat = [(x.start - ls[0].start) @ ls[0].direction_lateral for x in ls]
                     segments.append((f"{f}>{t}", [ls[k] for k in np.argsort(lat)]))
         right = place_roadside(_table(segments, False), replace(cfg, seed=right_seed))
@@ -428,7 +341,7 @@ class HighwayWorld(SlotWorld):
         left = place_roadside(_table(segments, True), median)
         parts = {f.name: np.concatenate([getattr(right, f.name), getattr(left, f.name)])
                  for f in fields(Roadside)}  # fmt: skip
-        parts["heading"][len(right) :] = _wrap(parts["heading"][len(right) :] + np.pi)
+        parts["heading"][len(right) :] = wrap_angle(parts["heading"][len(right) :] + np.pi)
         keep = np.ones(len(parts["x"]), dtype=bool)  # no post or parked car on a lane
         lanes = [x for tos in road.network.graph.values() for ls in tos.values() for x in ls]
         for j in np.flatnonzero(np.isin(parts["kind"], _ON_GROUND)):
