@@ -5,7 +5,7 @@ import pytest
 
 from acc_fusion.core.errors import InputError
 from acc_fusion.metrics.events import FCWMetrics
-from acc_fusion.metrics.summary import CAUSES
+from acc_fusion.metrics.summary import CAUSE_COUNTS, CAUSES
 
 
 def _run(cause_at_onset, steps=60, dt=0.1):
@@ -39,6 +39,13 @@ def test_a_sensing_false_warning_on_the_true_lead_counts_as_noise():
     assert s.by_cause["sensing_false"]["lead"] == 0
     assert s.by_cause["crash_relevant"]["lead"] == 1
     assert s.by_cause["crash_relevant"]["noise"] == 0
+
+
+def test_per_pair_counts_the_false_warnings_by_cause():
+    per = _run([CAUSES.index("stationary"), CAUSES.index("lead"), 0]).per_pair
+    assert per["sensing_false_stationary"].tolist() == [1, 0, 0]
+    assert all(per[c].sum() == 0 for c in CAUSE_COUNTS if c != "sensing_false_stationary")
+    assert "sensing_false_lead" not in per and "nuisance_noise" not in per
 
 
 def test_without_causes_the_summary_has_none_and_its_dict_no_key():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import socket
 import subprocess
@@ -16,6 +17,7 @@ import pytest
 from acc_fusion.cli.main import main
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.metrics.summary import CAUSE_COUNTS, FALSE_CLASSES
 from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.sweep.config import SweepConfig, load_sweep
 from acc_fusion.sweep.executors import check_address
@@ -408,6 +410,43 @@ def test_a_sumo_sweep_records_the_runs_of_sumo(tmp_path):
     assert (rows["steps"] == 50).all()  # 5 s of the ring's 0.1 s steps
     hours = rows.groupby("sumo.penetration")["hours"].first()
     assert 0 < hours[0.5] < hours[1.0]  # fewer equipped vehicles, less exposure
+
+
+def test_a_world_sweeps_rows_count_the_false_warnings_by_cause(tmp_path):
+    cfg = SweepConfig.from_mapping(
+        {
+            "name": "world-causes",
+            "source": "world",
+            "seeds": [0],
+            "runs": 6,
+            "base": {"methods": ["infrared", "radar"], "world": {"scene": "parked_curve"}},
+            "axes": {"world.conditions.fog_visibility": [1000.0, 20.0]},
+        }
+    )
+    rows = run_sweep(cfg, tmp_path, progress=False, report=False).rows
+    for cls in FALSE_CLASSES:
+        by_cause = rows[[c for c in CAUSE_COUNTS if c.startswith(cls + "_")]].sum(axis=1)
+        assert (by_cause == rows[cls]).all()
+    # The camera takes the parked car for a vehicle in path, unless fog hides it.
+    fooled = rows.groupby(["method", "world.conditions.fog_visibility"])[
+        "sensing_false_stationary"
+    ].sum()
+    assert fooled["infrared", 1000.0] >= 5 and fooled["infrared", 20.0] == 0
+    assert fooled["radar", 1000.0] == 0
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert summary["sensing_false_stationary"].sum() == rows["sensing_false_stationary"].sum()
+
+
+def test_the_rows_of_the_1d_pipeline_have_no_causes(small):
+    _, result = small
+    assert (result.rows[list(CAUSE_COUNTS)] == 0).all().all()
+
+
+def test_a_folder_of_an_older_version_is_refused(tmp_path):
+    cfg = SweepConfig.from_mapping(SMALL)
+    (tmp_path / "sweep.json").write_text(json.dumps({"config": cfg.as_dict()}))
+    with pytest.raises(ConfigError, match="older version"):
+        run_sweep(cfg, tmp_path, progress=False)
 
 
 def test_a_world_sweep_makes_weather_an_axis(tmp_path):

@@ -9,8 +9,7 @@ import json
 import pytest
 
 from acc_fusion.cli.main import main
-from acc_fusion.metrics.summary import CAUSES
-from acc_fusion.studies.world import FALSE_CLASSES
+from acc_fusion.metrics.summary import CAUSES, FALSE_CLASSES
 
 METHODS = ("radar", "infrared", "centralized", "federated")
 

@@ -95,7 +95,7 @@ from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_mask, check_range
 from acc_fusion.metrics.event_kernels import _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
-from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FCWSummary, event_rates
+from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSE_COUNTS, CAUSES, FCWSummary, event_rates
 
 #: Histogram bins [s]: lead time over [-60, 60) and TTC over [0, 60), 0.01 s wide.
 LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
@@ -109,6 +109,14 @@ COUNTS = (
 #: Indices of the class and the causes that :meth:`FCWMetrics._count_causes` re-labels.
 _SENSING_FALSE = ALERT_CLASSES.index("sensing_false")
 _LEAD, _NOISE = CAUSES.index("lead"), CAUSES.index("noise")
+#: Each of :data:`CAUSE_COUNTS` as (class index, cause index).
+_CAUSE_CELLS = tuple(
+    (ALERT_CLASSES.index(c), CAUSES.index(k))
+    for name in CAUSE_COUNTS
+    for c in ALERT_CLASSES
+    for k in CAUSES
+    if name == f"{c}_{k}"
+)
 
 
 class _Events(PairState):
@@ -161,7 +169,7 @@ class FCWMetrics(PairState):
 
     _PAIR_AXES = {
         "_onset_ttc": 0, "_collided": 0, "_warn_cause": 0, "_pair_counts": 1, "_pair_driven_s": 0,
-        "_pair_distance_m": 0, "_pair_lead_time_s": 0, "_values": 1,
+        "_pair_distance_m": 0, "_pair_lead_time_s": 0, "_values": 1, "_pair_causes": 1,
     }  # fmt: skip
 
     def __init__(self, n_pairs: int, dt: float, tolerance: float = 1.0, warn_level: int = 1):
@@ -199,6 +207,7 @@ class FCWMetrics(PairState):
         # and cause; the rows of COUNTS that say which warnings started or ended with a class.
         self._warn_cause = np.full(self.n_pairs, -1, dtype=np.int64)
         self._by_cause = np.zeros((len(ALERT_CLASSES), len(CAUSES)), dtype=np.int64)
+        self._pair_causes = np.zeros((len(ALERT_CLASSES), n_pairs, len(CAUSES)), np.int64)
         self._cause_rows = [COUNTS.index(c) for c in (*ALERT_CLASSES, "warnings")]
         self._causes_given = False
 
@@ -315,12 +324,12 @@ class FCWMetrics(PairState):
         ``noise`` (:data:`CAUSES`)."""
         causes = self._by_cause.shape[1]
         for k, mask in enumerate(ended):
-            known = mask & (self._warn_cause >= 0)
-            counts = np.bincount(self._warn_cause[known], minlength=causes)
+            pairs = np.flatnonzero(mask & (self._warn_cause >= 0))
+            cause = self._warn_cause[pairs]
             if k == _SENSING_FALSE:
-                counts[_NOISE] += counts[_LEAD]
-                counts[_LEAD] = 0
-            self._by_cause[k] += counts
+                cause = np.where(cause == _LEAD, _NOISE, cause)
+            self._pair_causes[k, pairs, cause] += 1  # a pair ends one warning at a time
+            self._by_cause[k] += np.bincount(cause, minlength=causes)
 
     def _check(self, system, oracle, ttc, speed, active, collided, relevant) -> None:
         """Raise the error of the first bad input of :meth:`update`."""
@@ -417,11 +426,17 @@ class FCWMetrics(PairState):
         ``missed``, ``collisions``, the alert classes ``crash_relevant``, ``nuisance``,
         ``sensing_false``, the crash-relevant situations ``relevant``, ``relevant_detected``,
         ``relevant_missed`` and the oracle's threats that met one, ``threats_relevant``),
-        ``hours`` and ``km`` of active exposure, and
-        ``lead_time_sum_s``, the sum of the lead times [s] of the pair's detected threats.
+        ``hours`` and ``km`` of active exposure,
+        ``lead_time_sum_s``, the sum of the lead times [s] of the pair's detected threats,
+        and the nuisance and sensing-false warnings by cause (:data:`CAUSE_COUNTS`; zeros
+        where no causes were given).
         """
         return {
             **{name: c.copy() for name, c in zip(COUNTS, self._pair_counts, strict=True)},
+            **{
+                name: self._pair_causes[k, :, j].copy()
+                for name, (k, j) in zip(CAUSE_COUNTS, _CAUSE_CELLS, strict=True)
+            },  # fmt: skip
             "hours": self._pair_driven_s / 3600.0,
             "km": self._pair_distance_m / 1000.0,
             "lead_time_sum_s": self._pair_lead_time_s.copy(),

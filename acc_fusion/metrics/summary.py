@@ -25,6 +25,19 @@ ALERT_CLASSES = ("crash_relevant", "nuisance", "sensing_false")
 #: never as ``lead``; a nuisance or crash-relevant one on the true lead stays ``lead``.
 CAUSES = ("lead", "noise", "stationary", "adjacent", "cut_in_out", "ghost", "fault")
 
+#: The classes of a warning that truth did not call for, which the causes break down.
+FALSE_CLASSES = ("nuisance", "sensing_false")
+
+#: Per-run counts of :data:`FALSE_CLASSES` by cause, ``<class>_<cause>`` (a nuisance warning
+#: is never ``noise``, a sensing-false one never ``lead``), as
+#: :meth:`acc_fusion.metrics.events.FCWMetrics.per_pair` and a sweep's rows give them.
+CAUSE_COUNTS = tuple(
+    f"{c}_{k}"
+    for c in FALSE_CLASSES
+    for k in CAUSES
+    if (c, k) not in (("nuisance", "noise"), ("sensing_false", "lead"))
+)
+
 
 @dataclass(frozen=True)
 class FCWSummary:

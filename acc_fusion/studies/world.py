@@ -17,7 +17,7 @@ from tqdm.auto import tqdm
 from acc_fusion.core.plots import method_color, plt
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.stats import Rate
-from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FCWSummary
+from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FALSE_CLASSES, FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
@@ -37,9 +37,6 @@ CAUSE_COLUMNS = ("conditions", "method", "class", *CAUSES, "per_100km")
 #: The columns of :meth:`WorldStudy.cause_rates`.
 CAUSE_RATE_COLUMNS = ("conditions", "method", "class", "cause", "warnings", "km", "per_100km",
                       "per_100km_lo", "per_100km_hi")  # fmt: skip
-#: The classes that :meth:`WorldStudy.causes` breaks down (a crash-relevant warning has no
-#: false cause).
-FALSE_CLASSES = ("nuisance", "sensing_false")
 #: The note under the tables by cause.
 CAUSE_NOTE = (
     "cause: what the selected object was in truth at the warning's onset; lead = the true "

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from acc_fusion.core.outputs import write_csv_atomic
 from acc_fusion.metrics.stats import Rate
-from acc_fusion.metrics.summary import ALERT_CLASSES, event_rates
+from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSE_COUNTS, event_rates
 from acc_fusion.sweep.columns import COUNT_COLUMNS, SUM_COLUMNS
 from acc_fusion.sweep.config import SweepConfig
 
@@ -16,7 +16,8 @@ from acc_fusion.sweep.config import SweepConfig
 def aggregate(rows, by: list[str], confidence: float = 0.95):
     """Pool the runs of ``rows`` (a DataFrame of :func:`run_sweep`) by the columns ``by``.
 
-    Returns a DataFrame with ``by``, ``runs``, the summed counts and exposure, and per group
+    Returns a DataFrame with ``by``, ``runs``, the summed counts (the nuisance and
+    sensing-false warnings by cause too) and exposure, and per group
     false alarms and each alert class per 100 km (and false alarms per hour; exact Poisson
     intervals), miss rates and false-alarm ratio (Wilson intervals) as ``<name>``,
     ``<name>_lo``, ``<name>_hi``, and the mean lead time [s] of the detected threats.
@@ -59,7 +60,8 @@ def _rate_columns(rates: dict) -> dict[str, Rate]:
 
 
 def formatted(table) -> list[dict]:
-    """Rows of an :func:`aggregate` table for reading: each rate as ``"value [lo, hi]"``."""
+    """Rows of an :func:`aggregate` table for reading: each rate as ``"value [lo, hi]"`` (the
+    counts by cause are left to the CSV tables)."""
 
     keep = [c for c in table.columns if not c.endswith(("_lo", "_hi"))]
     out = []
@@ -72,7 +74,7 @@ def formatted(table) -> list[dict]:
                 row[c] = f"{rec['missed']}/{rec['threats']}"
             elif c == "relevant_missed":
                 row[c] = f"{rec['relevant_missed']}/{rec['relevant']}"
-            elif c not in ("threats", "detected", "relevant", "relevant_detected"):
+            elif c not in ("threats", "detected", "relevant", "relevant_detected", *CAUSE_COUNTS):
                 row[c] = rec[c]
         out.append(row)
     return out

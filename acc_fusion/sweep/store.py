@@ -65,17 +65,25 @@ class SweepStore:
         self.schema = _schema(config)
         meta = self.out / "sweep.json"
         want = config.as_dict()
+        columns = self.schema.names
         if meta.exists():
             try:
-                have = json.loads(meta.read_text()).get("config")
-            except (OSError, ValueError, AttributeError):
+                have = json.loads(meta.read_text())
+            except (OSError, ValueError):
                 have = None
-            if not isinstance(have, dict) or _rows_part(have) != _rows_part(want):
+            if not isinstance(have, dict) or not isinstance(have.get("config"), dict):
+                have = {"config": None}
+            if have.get("config") is None or _rows_part(have["config"]) != _rows_part(want):
                 raise ConfigError(
                     f"output folder {str(self.out)!r} holds a different sweep (see its "
                     "sweep.json); use another --out or remove that folder"
                 )
-        write_json_atomic(meta, {"config": want})
+            if have.get("columns") != columns:
+                raise ConfigError(
+                    f"output folder {str(self.out)!r} holds the rows of an older version of "
+                    "acc_fusion, with other columns; use another --out or remove that folder"
+                )
+        write_json_atomic(meta, {"config": want, "columns": columns})
         for stale in self.parts.glob(".*.tmp"):  # a write cut short by a kill
             stale.unlink(missing_ok=True)
 
