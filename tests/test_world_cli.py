@@ -9,7 +9,7 @@ import json
 import pytest
 
 from acc_fusion.cli.main import main
-from acc_fusion.metrics.summary import CAUSES, FALSE_CLASSES
+from acc_fusion.metrics.summary import CAUSE_COUNTS, CAUSES, FALSE_CLASSES
 
 METHODS = ("radar", "infrared", "centralized", "federated")
 
@@ -55,7 +55,7 @@ def test_it_prints_both_tables_and_writes_every_file(written):
 def test_the_rates_by_cause_are_the_counts_over_the_distance_with_their_intervals(written):
     _, out, _ = written
     rates = _rows(out / "world_cause_rates.csv")
-    assert len(rates) == 2 * len(METHODS) * len(FALSE_CLASSES) * len(CAUSES)
+    assert len(rates) == 2 * len(METHODS) * len(CAUSE_COUNTS)
     counts = {
         (r["conditions"], r["method"], r["class"]): r for r in _rows(out / "world_causes.csv")
     }

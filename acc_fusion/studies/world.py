@@ -17,7 +17,13 @@ from tqdm.auto import tqdm
 from acc_fusion.core.plots import method_color, plt
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.stats import Rate
-from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSES, FALSE_CLASSES, FCWSummary
+from acc_fusion.metrics.summary import (
+    ALERT_CLASSES,
+    CAUSE_COUNTS,
+    CAUSES,
+    FALSE_CLASSES,
+    FCWSummary,
+)
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
@@ -101,13 +107,15 @@ class WorldStudy:
         return t
 
     def cause_rates(self) -> Table:
-        """:meth:`causes` as rates: one row per condition, method, class and cause, its
-        warnings per 100 km with the exact Poisson 95 % interval (an upper bound where
-        none was counted)."""
+        """:meth:`causes` as rates: one row per condition, method, class and cause that can
+        go together (:data:`~acc_fusion.metrics.summary.CAUSE_COUNTS`), its warnings per
+        100 km with the exact Poisson 95 % interval (an upper bound where none was counted)."""
         t = Table(f"Alerts by cause per 100 km, {self.where}, 95% intervals", CAUSE_RATE_COLUMNS)
         for (label, m), (counts, km) in self.pooled().items():
             for c in FALSE_CLASSES:
                 for cause, k in counts[c].items():
+                    if f"{c}_{cause}" not in CAUSE_COUNTS:
+                        continue
                     rate = Rate.poisson(k, km / 100.0)
                     t.rows.append(
                         {"conditions": label, "method": m, "class": c, "cause": cause,
