@@ -130,20 +130,20 @@ def run(args: argparse.Namespace) -> int:
     study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=args.world)
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())
-    world = None
+    causes = {}
     if args.world:
         runs = {(path.stem, conditions[0].label): study.off.summaries}
         world = WorldStudy(sim, runs, where=f"SUMO {path.stem}, FCW off")
-        print("\n" + world.causes().format())
+        causes = {"causes": world.causes(), "cause_rates": world.cause_rates()}
+        print("\n" + causes["causes"].format())
     print("\n" + study.benefits().format())
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
     if out is not None:
         stem = f"sumo_{path.stem}_seed{sumo_cfg.seed}"
-        if world is not None:
-            for name, t in (("causes", world.causes()), ("cause_rates", world.cause_rates())):
-                write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
+        for name, t in causes.items():
+            write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
         write_study(
             out,
             stem,

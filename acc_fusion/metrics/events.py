@@ -95,7 +95,14 @@ from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_array, check_mask, check_range
 from acc_fusion.metrics.event_kernels import _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
-from acc_fusion.metrics.summary import ALERT_CLASSES, CAUSE_COUNTS, CAUSES, FCWSummary, event_rates
+from acc_fusion.metrics.summary import (
+    ALERT_CLASSES,
+    CAUSE_CELLS,
+    CAUSE_COUNTS,
+    CAUSES,
+    FCWSummary,
+    event_rates,
+)
 
 #: Histogram bins [s]: lead time over [-60, 60) and TTC over [0, 60), 0.01 s wide.
 LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
@@ -109,14 +116,8 @@ COUNTS = (
 #: Indices of the class and the causes that :meth:`FCWMetrics._count_causes` re-labels.
 _SENSING_FALSE = ALERT_CLASSES.index("sensing_false")
 _LEAD, _NOISE = CAUSES.index("lead"), CAUSES.index("noise")
-#: Each of :data:`CAUSE_COUNTS` as (class index, cause index).
-_CAUSE_CELLS = tuple(
-    (ALERT_CLASSES.index(c), CAUSES.index(k))
-    for name in CAUSE_COUNTS
-    for c in ALERT_CLASSES
-    for k in CAUSES
-    if name == f"{c}_{k}"
-)
+#: Each of :data:`CAUSE_CELLS` as (class index, cause index).
+_CAUSE_CELLS = tuple((ALERT_CLASSES.index(c), CAUSES.index(k)) for c, k in CAUSE_CELLS)
 
 
 class _Events(PairState):

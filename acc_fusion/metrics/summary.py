@@ -28,15 +28,17 @@ CAUSES = ("lead", "noise", "stationary", "adjacent", "cut_in_out", "ghost", "fau
 #: The classes of a warning that truth did not call for, which the causes break down.
 FALSE_CLASSES = ("nuisance", "sensing_false")
 
-#: Per-run counts of :data:`FALSE_CLASSES` by cause, ``<class>_<cause>`` (a nuisance warning
-#: is never ``noise``, a sensing-false one never ``lead``), as
-#: :meth:`acc_fusion.metrics.events.FCWMetrics.per_pair` and a sweep's rows give them.
-CAUSE_COUNTS = tuple(
-    f"{c}_{k}"
+#: The (class, cause) pairs that can occur among :data:`FALSE_CLASSES` (a nuisance warning
+#: is never ``noise``, a sensing-false one never ``lead``).
+CAUSE_CELLS = tuple(
+    (c, k)
     for c in FALSE_CLASSES
     for k in CAUSES
     if (c, k) not in (("nuisance", "noise"), ("sensing_false", "lead"))
 )
+#: Per-run counts of :data:`CAUSE_CELLS`, named ``<class>_<cause>``, as
+#: :meth:`acc_fusion.metrics.events.FCWMetrics.per_pair` and a sweep's rows give them.
+CAUSE_COUNTS = tuple(f"{c}_{k}" for c, k in CAUSE_CELLS)
 
 
 @dataclass(frozen=True)

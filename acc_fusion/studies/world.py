@@ -19,7 +19,7 @@ from acc_fusion.core.table import Table
 from acc_fusion.metrics.stats import Rate
 from acc_fusion.metrics.summary import (
     ALERT_CLASSES,
-    CAUSE_COUNTS,
+    CAUSE_CELLS,
     CAUSES,
     FALSE_CLASSES,
     FCWSummary,
@@ -108,13 +108,13 @@ class WorldStudy:
 
     def cause_rates(self) -> Table:
         """:meth:`causes` as rates: one row per condition, method, class and cause that can
-        go together (:data:`~acc_fusion.metrics.summary.CAUSE_COUNTS`), its warnings per
+        go together (:data:`~acc_fusion.metrics.summary.CAUSE_CELLS`), its warnings per
         100 km with the exact Poisson 95 % interval (an upper bound where none was counted)."""
         t = Table(f"Alerts by cause per 100 km, {self.where}, 95% intervals", CAUSE_RATE_COLUMNS)
         for (label, m), (counts, km) in self.pooled().items():
             for c in FALSE_CLASSES:
                 for cause, k in counts[c].items():
-                    if f"{c}_{cause}" not in CAUSE_COUNTS:
+                    if (c, cause) not in CAUSE_CELLS:
                         continue
                     rate = Rate.poisson(k, km / 100.0)
                     t.rows.append(

@@ -8,7 +8,7 @@ import numpy as np
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.metrics.events import COUNTS
-from acc_fusion.metrics.summary import CAUSE_COUNTS, FALSE_CLASSES
+from acc_fusion.metrics.summary import CAUSE_CELLS, CAUSE_COUNTS
 from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.traffic import _run
@@ -58,7 +58,6 @@ def _summary_counts(s) -> dict[str, np.ndarray]:
     lead = s.lead_time.mean * s.lead_time.finite if s.lead_time.finite else 0.0
     figures = {c: getattr(s, c) for c in (*COUNTS, "hours", "km")}
     by_cause = s.by_cause or {}
-    for c in CAUSE_COUNTS:  # "<class>_<cause>", the class one of FALSE_CLASSES
-        cls, cause = next((k, c[len(k) + 1 :]) for k in FALSE_CLASSES if c.startswith(k + "_"))
-        figures[c] = by_cause.get(cls, {}).get(cause, 0)
+    for name, (cls, cause) in zip(CAUSE_COUNTS, CAUSE_CELLS, strict=True):
+        figures[name] = by_cause.get(cls, {}).get(cause, 0)
     return {k: np.array([v]) for k, v in {**figures, "lead_time_sum_s": lead}.items()}

@@ -71,9 +71,9 @@ class SweepStore:
                 have = json.loads(meta.read_text())
             except (OSError, ValueError):
                 have = None
-            if not isinstance(have, dict) or not isinstance(have.get("config"), dict):
-                have = {"config": None}
-            if have.get("config") is None or _rows_part(have["config"]) != _rows_part(want):
+            have = have if isinstance(have, dict) else {}
+            config = have.get("config")
+            if not isinstance(config, dict) or _rows_part(config) != _rows_part(want):
                 raise ConfigError(
                     f"output folder {str(self.out)!r} holds a different sweep (see its "
                     "sweep.json); use another --out or remove that folder"
