@@ -1,6 +1,6 @@
 """Benchmark: the cost of the FCW pipeline on top of a SUMO traffic simulation.
 
-Runs the same SUMO scenario (the bundled motorway, >= 500 vehicles at peak, with the SUMO
+Runs the same SUMO scenario (the bundled motorway, about 390 vehicles once full, with the SUMO
 options of :func:`acc_fusion.truth.sumo.launch.sumo_command`) in four ways, each in a fresh process
 (libsumo allows one simulation per process), one after the other: ``--repeat`` (3) pairs of a
 bare run and a pipeline run back to back, then one reads run and one source run:

@@ -54,8 +54,9 @@ class Network:
 
 NETWORKS: dict[str, Network] = {
     "motorway": Network(
-        "two 3-lane carriageways, 5 km, 33.33 m/s; cars and trucks, 5400 veh/h each way",
-        {"node-files": "nod", "edge-files": "edg"},
+        "two 3-lane carriageways, 4.9 km with two curves, an exit and an entry each way, "
+        "33.33 m/s; sources written by scripts/build_motorway.py",
+        {"node-files": "nod", "edge-files": "edg", "connection-files": "con"},
     ),
     "onramp": Network(
         "2-lane motorway with an on-ramp and a 250 m acceleration lane (cut-ins)",

@@ -108,40 +108,53 @@ print(json.dumps({"time": libsumo.simulation.getTime(), "vehicles": libsumo.vehi
     assert out["collisions"] == 0
 
 
-def test_motorway_reaches_500_vehicles():
-    """5400 veh/h per carriageway fills the 2 x 5 km road in about three minutes."""
+def test_motorway_fills_with_its_demand_and_its_drivers_follow_eidm():
+    """5400 veh/h per carriageway, at about 33 m/s, keep some 390 vehicles on the 2 x 4.9 km
+    road once it is full (after about 200 s); the heavy vehicles' lengths; EIDM drivers."""
     out = probe(
         """
-t500 = None
+counts = []
 while libsumo.simulation.getTime() < 300:
     libsumo.simulationStep()
-    if libsumo.vehicle.getIDCount() >= 500:
-        t500 = libsumo.simulation.getTime()
-        break
+    counts.append(libsumo.vehicle.getIDCount())
 types = {libsumo.vehicle.getTypeID(v) for v in libsumo.vehicle.getIDList()}
 lengths = {t: libsumo.vehicletype.getLength(t) for t in types}
-print(json.dumps({"t500": t500, "lengths": lengths,
-                  "lanes": libsumo.edge.getLaneNumber("east")}))
+print(json.dumps({"full": min(counts[2000:]), "lengths": lengths,
+                  "lanes": [libsumo.edge.getLaneNumber(e) for e in ("east1", "east_acc")]}))
 """,
         "motorway",
     )
-    assert out["t500"] is not None and out["t500"] < 300
-    assert out["lanes"] == 3
+    assert out["full"] > 350
+    assert out["lanes"] == [3, 4]  # the acceleration lane of the entry
     lengths = {t.rstrip("0123456789"): length for t, length in out["lengths"].items()}
     assert lengths == {"car": 5.0, "truck": 12.0, "semi": 16.5}
+    with as_file(resource("motorway", "rou.xml")) as path:
+        models = {t.get("carFollowModel") for t in ET.parse(path).getroot().iter("vType")}
+    assert models == {"EIDM"}
 
 
-@pytest.mark.parametrize("name", ["motorway", "onramp"])
-def test_car_drivers_keep_human_like_headways(name):
-    """Twenty equally likely car types whose tau are the (i + 0.5)/20 quantiles of the
-    documented log-normal (median 1.2 s, log-sd 0.6), all else SUMO's passenger defaults."""
+def test_motorway_sources_are_what_its_script_writes(tmp_path):
+    """sumo_nets/motorway's nod, edg, con and rou files are scripts/build_motorway.py's output
+    to the byte (edit the script, not the files)."""
+    script = Path(__file__).resolve().parents[1] / "scripts" / "build_motorway.py"
+    subprocess.run([sys.executable, str(script), "--output-dir", str(tmp_path)], check=True,
+                   capture_output=True)  # fmt: skip
+    for suffix in ("nod", "edg", "con", "rou"):
+        with as_file(resource("motorway", f"{suffix}.xml")) as path:
+            assert (tmp_path / f"motorway.{suffix}.xml").read_bytes() == path.read_bytes()
+
+
+@pytest.mark.parametrize(("name", "median"), [("motorway", 1.1), ("onramp", 1.2)])
+def test_car_drivers_keep_human_like_headways(name, median):
+    """Twenty equally likely car types whose tau (Krauss) or desired time gap (EIDM) are the
+    (i + 0.5)/20 quantiles of the documented log-normal (log-sd 0.6), all else equal."""
     from scipy.stats import norm
 
     with as_file(resource(name, "rou.xml")) as path:
         root = ET.parse(path).getroot()
     cars = [t for t in root.iter("vType") if t.get("id").startswith("car")]
     taus = np.array([float(t.get("tau")) for t in cars])
-    want = 1.2 * np.exp(0.6 * norm.ppf((np.arange(20) + 0.5) / 20))
+    want = median * np.exp(0.6 * norm.ppf((np.arange(20) + 0.5) / 20))
     np.testing.assert_allclose(taus, want, atol=6e-4)
     assert sum(float(t.get("probability")) for t in cars) == pytest.approx(0.85, abs=1e-3)
     others = {(k, v) for t in cars for k, v in t.attrib.items() if k not in ("id", "tau")}
