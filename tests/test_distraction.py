@@ -200,3 +200,23 @@ def test_the_benefit_interval_does_not_depend_on_the_hash_seed():
         for seed in ("1", "2", "3")
     }
     assert len(outs) == 1
+
+
+def test_a_driver_looks_away_only_when_the_situation_is_calm():
+    """With calm_headway / calm_ttc, an episode that falls due while the driver follows
+    closely or closes fast on his lead is skipped; alone on the road, or far behind and not
+    closing, he looks away as often as without the gate."""
+    from acc_fusion.truth.distraction import calm
+
+    cfg = DistractionConfig(calm_headway=1.0, calm_ttc=10.0)
+    speed, has = np.full(4, 20.0), np.array([True, True, True, False])
+    gap, rr = np.array([10.0, 40.0, 40.0, 5.0]), np.array([0.0, 0.0, -5.0, -5.0])
+    # 0.5 s headway; 2 s and not closing; 2 s but 8 s to collision; no lead
+    assert calm(cfg, gap, speed, rr, has).tolist() == [False, True, False, True]
+    for range_rate, gated in ((-5.0, True), (0.0, False)):  # 30 m at 20 m/s: 1.5 s headway
+        free = run(distracted(rate=600.0), range_rate=range_rate, steps=600)
+        calm_only = run(distracted(rate=600.0, calm_headway=1.0, calm_ttc=10.0),
+                        range_rate=range_rate, steps=600)  # fmt: skip
+        assert free[:, 0].any()
+        # TTC 30/5 = 6 s < 10 s: never calm; not closing: the same episodes as without
+        assert (not calm_only[:, 0].any()) if gated else (calm_only == free).all()

@@ -183,6 +183,19 @@ def test_frames_shapes_and_gap_geometry(road, penetration):
         assert np.all(frame.gap[frame.has_leader] <= 250.0)
 
 
+def test_the_warm_up_fills_the_network_before_the_first_frame(road):
+    """``warmup``: SUMO runs that long first; the first frame holds the vehicles already on
+    the road, equipped as they would be at departure, and ``end`` counts after it."""
+    with SumoSource(config(road, end=10.0, warmup=30.0, seed=1)) as src:
+        assert src.t == pytest.approx(30.0) and src.n_steps == 100
+        assert src.active.sum() == len(libsumo.vehicle.getIDList()) > 5
+        while not src.done:
+            src.advance()
+        assert src.t == pytest.approx(40.0)
+    with pytest.raises(ConfigError, match="warmup"):
+        config(road, warmup=-1.0)
+
+
 def test_penetration_equips_about_half(road):
     with SumoSource(config(road, end=120.0, penetration=0.5, seed=4)) as src:
         while not src.done:

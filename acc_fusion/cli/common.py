@@ -17,8 +17,8 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
-from acc_fusion.truth.distraction import TRAFFIC_DISTRACTION_RATE
-from acc_fusion.truth.sumo.config import SumoConfig
+from acc_fusion.truth.distraction import TRAFFIC_CALM, TRAFFIC_DISTRACTION_RATE
+from acc_fusion.truth.sumo.config import TRAFFIC_WARMUP, SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
@@ -101,6 +101,13 @@ def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
         "--penetration", type=float, default=1.0, help="fraction of equipped vehicles (default 1)"
     )
     p.add_argument(
+        "--warmup",
+        type=float,
+        default=TRAFFIC_WARMUP,
+        help="simulated seconds SUMO runs before anything is measured, the network filling "
+        f"(default {TRAFFIC_WARMUP:g}); --end counts after it",
+    )
+    p.add_argument(
         "--hazard-rate",
         type=float,
         default=2.0,
@@ -151,6 +158,7 @@ def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
         sumocfg=str(path),
         end=args.end,
         penetration=args.penetration,
+        warmup=args.warmup,
         hazard_rate=args.hazard_rate,
         inattentive=args.inattentive,
         **fields,
@@ -160,13 +168,20 @@ def traffic_config(args: argparse.Namespace, path, **fields) -> SumoConfig:
 def traffic_sim_config(args: argparse.Namespace) -> SimConfig:
     """:func:`sim_config` of a traffic command: one run, the drivers distracted at
     ``--distraction`` (else the config's ``driver.distraction.rate`` if given, else
-    :data:`~acc_fusion.truth.distraction.TRAFFIC_DISTRACTION_RATE`), braking for a warning
-    only when truth says they must (``driver.brakes_only_for_threats``)."""
+    :data:`~acc_fusion.truth.distraction.TRAFFIC_DISTRACTION_RATE`), looking away only when
+    calm (:data:`~acc_fusion.truth.distraction.TRAFFIC_CALM`, unless the config sets
+    ``calm_headway`` or ``calm_ttc``), braking for a warning only when truth says they must
+    (``driver.brakes_only_for_threats``)."""
     cfg = sim_config(args, runs=1)
     given = config_data(args)[0].get("driver", {})
+    distraction = given.get("distraction", {})
     rate = args.distraction
-    if rate is None and "rate" not in given.get("distraction", {}):
+    if rate is None and "rate" not in distraction:
         rate = TRAFFIC_DISTRACTION_RATE
+    if not {"calm_headway", "calm_ttc"} & set(distraction):
+        headway, ttc = TRAFFIC_CALM
+        calm = replace(cfg.driver.distraction, calm_headway=headway, calm_ttc=ttc)
+        cfg = replace(cfg, driver=replace(cfg.driver, distraction=calm))
     judged = {} if "brakes_only_for_threats" in given else {"brakes_only_for_threats": True}
     return with_driver(cfg, rate, **judged)
 

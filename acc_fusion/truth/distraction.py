@@ -25,6 +25,16 @@ episode short moves none of the later ones, so two runs on the same seed (FCW of
 give a driver the same episodes at the same times: common random numbers for the paired
 comparison (:mod:`acc_fusion.metrics.benefit`).
 
+Drivers choose when to look away (self-regulation): an episode that falls due while the
+situation is not calm is skipped, calm being a time headway of at least ``calm_headway`` and,
+when closing on the lead, a time to collision of at least ``calm_ttc`` (no lead: calm).
+Naturalistic data show that drivers engage in visual-manual tasks less in demanding
+situations (Tivesten & Dozza, "Driving context influences drivers' decision to engage in
+visual-manual phone tasks: evidence from a naturalistic driving study", *J. Safety Res.*
+53:87-96, 2015); the thresholds are assumptions (:data:`TRAFFIC_CALM`).  Without the gate a
+driver at 0.4 s behind his lead looks away for seconds as often as one alone on the road, and
+the traffic's crashes come from that alone.
+
 Where the numbers come from (assumptions anchored in published figures; no naturalistic
 distribution was fitted here):
 
@@ -55,6 +65,12 @@ from acc_fusion.core.validation import check_interval, check_range
 #: Episodes per hour of attentive driving that the traffic commands (``acc-fusion sumo``,
 #: ``make run``) assume: eyes off the road about 10 % of the time (see the module docstring).
 TRAFFIC_DISTRACTION_RATE = 300.0
+#: The calm of the traffic commands' drivers (``calm_headway`` [s], ``calm_ttc`` [s]): they
+#: look away only at 1 s of time headway or more, and not while closing on the lead with a
+#: time to collision under 10 s.  Assumptions (see the module docstring): 1 s is the headway
+#: under which drivers follow closely by choice in the headway data of King et al. (2022), 10 s
+#: a closing the driver notices.
+TRAFFIC_CALM = (1.0, 10.0)
 
 
 @dataclass(frozen=True)
@@ -66,14 +82,22 @@ class DistractionConfig:
         duration_median: median episode duration [s]; 1.2.
         duration_log_sd: standard deviation of ``ln`` duration; 0.5.
         duration_range: ``(low, high)`` clip of the duration [s]; (0.3, 6.0).
+        calm_headway: an episode starts only at this time headway (gap over speed) or more
+            [s]; 0 (any).
+        calm_ttc: ... and, when closing on the lead, at this time to collision or more [s];
+            0 (any).
     """
 
     rate: float = 0.0
     duration_median: float = 1.2
     duration_log_sd: float = 0.5
     duration_range: tuple[float, float] = (0.3, 6.0)
+    calm_headway: float = 0.0
+    calm_ttc: float = 0.0
 
     def __post_init__(self) -> None:
+        check_range("driver.distraction.calm_headway", self.calm_headway, 0.0, 60.0)
+        check_range("driver.distraction.calm_ttc", self.calm_ttc, 0.0, 600.0)
         check_range("driver.distraction.rate", self.rate, 0.0, 3600.0)
         check_range(
             "driver.distraction.duration_median", self.duration_median, 0.0, 60.0, lo_open=True
@@ -84,6 +108,17 @@ class DistractionConfig:
             "duration_range",
             check_interval("driver.distraction.duration_range", self.duration_range, lo_open=True),
         )
+
+
+def calm(config: DistractionConfig, gap, speed, range_rate, has_leader) -> np.ndarray:
+    """Where a driver may look away (see the module docstring): no lead, or a time headway
+    ``gap / speed`` of ``calm_headway`` or more and, when closing (``range_rate`` < 0), a time
+    to collision ``gap / -range_rate`` of ``calm_ttc`` or more (arrays ``(N,)``, SI)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        headway = np.where(speed > 0.0, gap / speed, np.inf)
+        ttc = np.where(range_rate < 0.0, gap / -range_rate, np.inf)
+    ok = (headway >= config.calm_headway) & (ttc >= config.calm_ttc)
+    return ~has_leader | ok
 
 
 class EpisodeDraws:

@@ -76,7 +76,7 @@ from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, unit_key
 from acc_fusion.core.units import TIME_TOL, G
 from acc_fusion.core.validation import check_array, check_choice, check_interval, check_range
-from acc_fusion.truth.distraction import DistractionConfig, EpisodeDraws
+from acc_fusion.truth.distraction import DistractionConfig, EpisodeDraws, calm
 from acc_fusion.truth.frame import TruthFrame
 
 #: The release rules of :class:`DriverConfig`.
@@ -308,12 +308,13 @@ class Driver(PairState):
         self._braking &= ~self._released(warned, frame)
         if self.distracts:
             self._look_back(due & self.eyes_off)  # a warning cut the episode short
-            self._look_away(t)
+            self._look_away(t, frame)
         return np.where(self._braking, self.deceleration, 0.0)
 
-    def _look_away(self, t: float) -> None:
-        """Start the episodes that are due, where the driver is idle (else the episode is
-        skipped); schedule each due episode's successor; keep :attr:`holding`.
+    def _look_away(self, t: float, frame: TruthFrame) -> None:
+        """Start the episodes that are due, where the driver is idle and the situation calm
+        (:func:`acc_fusion.truth.distraction.calm`; else the episode is skipped); schedule
+        each due episode's successor; keep :attr:`holding`.
 
         The schedule is fixed in advance, whatever happens on the road: episode k+1 is due
         ``gap`` after the *drawn* end of episode k (:mod:`acc_fusion.truth.distraction`), so
@@ -327,6 +328,10 @@ class Driver(PairState):
             k = self._episodes[due]
             length = self._draws.duration(self._slot[due], k)
             idle = np.isnan(self._onset[due]) & ~self._braking[due] & ~self.eyes_off[due]
+            d = self.config.distraction
+            if d.calm_headway > 0 or d.calm_ttc > 0:
+                idle &= calm(d, frame.gap[due], frame.ego_speed[due], frame.range_rate[due],
+                             frame.has_leader[due])  # fmt: skip
             start = due[idle]
             self._eyes_back[start] = t + length[idle]
             self._holding[start] = True

@@ -24,6 +24,11 @@ COLLISION_ACTIONS = ("remove", "warn", "teleport")
 #: (the run then ends when no vehicle is left) [s of simulated time].
 UNBOUNDED_END = 86400.0
 
+#: The warm-up of the traffic commands (``acc-fusion sumo``, ``tune``) [s]: the bundled
+#: motorway (4.9 km) takes its vehicles about 165 s to drive at 30 m/s, so after 200 s its
+#: density is that of the demand and every vehicle in it has left its insertion behind.
+TRAFFIC_WARMUP = 200.0
+
 
 class SumoError(AccFusionError, RuntimeError):
     """SUMO could not start, failed during the run, or a second simulation was opened."""
@@ -36,8 +41,12 @@ class SumoConfig:
     Attributes:
         sumocfg: path of a ``.sumocfg`` file (any user file; bundled ones are resolved by the
             caller).
-        end: simulated seconds to run from the begin time; ``None``: the ``.sumocfg``'s end
-            (and if it has none, until no vehicle is left, at most :data:`UNBOUNDED_END`).
+        end: simulated seconds to run from the begin time (after the warm-up); ``None``: the
+            ``.sumocfg``'s end (and if it has none, until no vehicle is left, at most
+            :data:`UNBOUNDED_END`).
+        warmup: simulated seconds SUMO runs before the source's first frame [s]; 0.  Nothing
+            is measured, equipped or perceived during it: the network fills, and vehicles
+            inserted at its ends settle, before any figure counts (every figure alike).
         penetration: fraction of vehicles equipped with FCW, in [0, 1]; 1.0.
         seed: seed of SUMO (``--seed``) and of the equipped / inattentive / hazard draws; 0.
         capacity: maximum number of simultaneously tracked equipped vehicles (pair slots, the
@@ -67,6 +76,7 @@ class SumoConfig:
 
     sumocfg: str
     end: float | None = None
+    warmup: float = 0.0
     penetration: float = 1.0
     seed: int = 0
     capacity: int = 1024
@@ -89,6 +99,7 @@ class SumoConfig:
         object.__setattr__(self, "sumocfg", os.fspath(self.sumocfg))
         if self.end is not None:
             object.__setattr__(self, "end", check_range("end", self.end, 0.0, lo_open=True))
+        check_range("warmup", self.warmup, 0.0, UNBOUNDED_END)
         check_range("penetration", self.penetration, 0.0, 1.0)
         for name in ("seed", "capacity"):
             value = getattr(self, name)

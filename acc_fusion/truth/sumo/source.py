@@ -183,6 +183,8 @@ class SumoSource(SumoControls, SumoReads, SumoSlots, SlotSource):
         self._closed = False
         _OPEN = weakref.ref(self)
         try:
+            if cfg.warmup > 0:  # the network fills before the first frame (SumoConfig.warmup)
+                self._guard(api.simulationStep, float(api.simulation.getTime()) + cfg.warmup)
             self._guard(self._setup, cfg_path)
         except BaseException:
             self.close()
