@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $@
 
 run: $(STAMP)
-	$(BIN)/acc-fusion sumo --net motorway --end 300
+	$(BIN)/acc-fusion sumo --net motorway --end 300 --out results/make_run
 
 test: $(STAMP)
 	$(BIN)/ruff check acc_fusion scripts tests examples docs/gen

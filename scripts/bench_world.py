@@ -22,7 +22,7 @@ other:
   of the slots;
 * **pipeline**: the same on a
   :class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` opened with ``objects``,
-  as ``acc-fusion sumo --world`` runs it (open loop): SUMO and the object frames in a
+  as ``acc-fusion sumo --open-loop`` runs it: SUMO and the object frames in a
   process of their own, ahead of the pipeline; the same frames bit for bit.
 
 Each run simulates the same ``--warmup`` seconds (30) untimed — the network fills, numba

@@ -1,4 +1,4 @@
-"""2-D object truth from SUMO (acc_fusion.truth.sumo.objects) on the bundled motorway: the lead is
+"""2-D object truth from SUMO (acc_fusion.truth.sumo.objects) on a straight motorway: the lead is
 SUMO's leader at the 1-D gap, relative lanes, the forward field, stationary objects, stable ids,
 the roadside placement and its config.  One short SUMO run (45 s + 4 recorded steps) serves
 every test of the module."""
@@ -39,6 +39,10 @@ from acc_fusion.truth.sumo.roadside import (  # noqa: E402
 from acc_fusion.truth.sumo.source import SumoSource  # noqa: E402
 from acc_fusion.truth.sumo.world import SumoWorld  # noqa: E402
 
+#: A straight motorway (the former bundled one: one edge per direction, along x), where the
+#: objects' positions are differences of SUMO's coordinates.
+STRAIGHT = Path(__file__).parent / "data" / "straight_motorway" / "straight.sumocfg"
+
 #: Straight-road tolerance of positions [m]: x and the gap are differences of the same SUMO
 #: coordinates (below 5 km, rounding about 1e-12 m); 1 µm leaves room for float sums.
 TOL = 1e-6
@@ -47,7 +51,7 @@ TOL = 1e-6
 @pytest.fixture(scope="module")
 def run():
     """Frames of 4 consecutive steps after 45 s, with SUMO's own view of each step."""
-    config = SumoConfig(str(bundled_nets()["motorway"]), end=60, seed=3)
+    config = SumoConfig(str(STRAIGHT), end=60, seed=3)
     with SumoSource(config) as src:
         objects = SumoObjects(src)
         for _ in range(450):
@@ -360,7 +364,7 @@ def test_a_lane_change_gives_lateral_speed_for_the_lane_change_duration():
 
 
 def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_path, capsys):
-    args = ["sumo", "--world", "--net", "motorway", "--end", "45", "--conditions", "day",
+    args = ["sumo", "--open-loop", "--net", "motorway", "--end", "45", "--conditions", "day",
             "night+fog=60", "--out", str(tmp_path)]  # fmt: skip
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -376,13 +380,13 @@ def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_
 
 
 def test_conditions_need_the_world():
-    args = build_parser().parse_args(["sumo", "--net", "motorway", "--conditions", "day"])
-    with pytest.raises(ConfigError, match="add --world"):
+    args = build_parser().parse_args(["sumo", "--net", "motorway", "--pair", "--conditions", "day"])
+    with pytest.raises(ConfigError, match="drop --pair"):
         sumo_command(args)
 
 
 def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsys):
-    args = ["sumo", "--world", "--closed-loop", "--net", "motorway", "--end", "40",
+    args = ["sumo", "--net", "motorway", "--end", "40",
             "--conditions", "fog=60", "--out", str(tmp_path)]  # fmt: skip
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -403,11 +407,14 @@ def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsy
 @pytest.mark.parametrize(
     ("flags", "match"),
     [
-        (["--closed-loop"], "add --world"),
-        (["--world", "--closed-loop", "--conditions", "day", "night"], "one condition"),
-        (["--world", "--all-drives"], "add it for --all-drives"),
-        (["--world", "--ssm"], "drop --gui, --ssm"),
-        (["--world", "--set", "drive=federated"], "add --closed-loop"),
+        (["--pair", "--open-loop"], "drop --pair"),
+        (["--conditions", "day", "night"], "one condition"),
+        (["--open-loop", "--all-drives"], "drop --all-drives"),
+        (["--ssm"], "add --pair"),
+        (["--open-loop", "--set", "drive=federated"], "drop it"),
+        (["--seeds", "0-1", "--seed", "3"], "drop --gui and --seed"),
+        (["--address", "auto"], "settings of --seeds"),
+        (["--seeds", "3-1"], "lo <= hi"),
     ],
 )
 def test_bad_world_flags_are_one_error(flags, match):

@@ -253,7 +253,7 @@ def test_a_ray_task_runs_its_chunk_on_one_numba_thread(monkeypatch):
     monkeypatch.setattr(executors, "run_chunk", lambda chunk: numba.get_num_threads())
     threads = numba.get_num_threads()
     try:
-        assert executors.run_chunk_alone(None) == 1
+        assert executors.run_alone(executors.run_chunk, None) == 1
     finally:
         numba.set_num_threads(threads)
 

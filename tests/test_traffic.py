@@ -30,7 +30,17 @@ def test_resolve_errors_name_the_file_or_the_choices(tmp_path):
 
 
 def test_sumo_command_writes_the_table_and_files(tmp_path, capsys):
-    args = ["sumo", "--net", "onramp", "--end", "60", "--hazard-rate", "20", "--all-drives"]
+    args = [
+        "sumo",
+        "--pair",
+        "--net",
+        "onramp",
+        "--end",
+        "60",
+        "--hazard-rate",
+        "20",
+        "--all-drives",
+    ]
     args += ["--out", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -66,7 +76,7 @@ def test_the_oracle_ttc_agrees_with_sumos_ssm_device_when_no_driver_looks_away(c
     # With distraction SSM also sees conflicts with vehicles merging ahead of a driver who
     # does not give way (not yet his leader), so its minTTC is lower: only without it are the
     # two the same quantity.
-    args = ["sumo", "--net", "onramp", "--end", "60", "--hazard-rate", "20"]
+    args = ["sumo", "--pair", "--net", "onramp", "--end", "60", "--hazard-rate", "20"]
     assert main([*args, "--distraction", "0", "--ssm"]) == 0
     out = capsys.readouterr().out
     m = re.search(r"SSM minTTC: (\d+) vehicles, median relative difference (\S+)", out)

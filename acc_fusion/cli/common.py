@@ -17,6 +17,7 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.sweep.executors import EXECUTORS
 from acc_fusion.truth.distraction import TRAFFIC_CALM, TRAFFIC_DISTRACTION_RATE
 from acc_fusion.truth.sumo.config import TRAFFIC_WARMUP, SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
@@ -92,6 +93,29 @@ def add_sim_arguments(p: argparse.ArgumentParser, runs_help: str | None) -> None
     p.add_argument("--seed", type=seed, help="random seed (default 0)")
     if runs_help:
         p.add_argument("--runs", type=positive_int, help=runs_help)
+
+
+def add_executor_arguments(p: argparse.ArgumentParser, what: str = "") -> None:
+    """``--executor``, ``--address`` and ``--workers``: where parallel runs go (local
+    processes or Ray, :func:`acc_fusion.sweep.executors.make_map`); ``what`` prefixes their
+    help (e.g. ``"with --seeds: "``)."""
+    p.add_argument(
+        "--executor",
+        choices=EXECUTORS,
+        default="local",
+        help=f"{what}where to run: local processes or Ray (default local)",
+    )
+    p.add_argument(
+        "--address",
+        metavar="ADDR",
+        help=f"{what}Ray cluster address HOST:PORT or ray://HOST:PORT (default: a local Ray)",
+    )
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        default=2,
+        help=f"{what}worker processes (local) or CPUs of the local Ray (default 2)",
+    )
 
 
 def add_traffic_arguments(p: argparse.ArgumentParser) -> None:

@@ -1,6 +1,7 @@
-"""``acc-fusion sumo``: FCW in SUMO traffic, FCW off and on on the same seed; with ``--world``
-the 2-D object pipeline in the same traffic, open loop, alerts by class and cause, or with
-``--closed-loop`` as well FCW off and on, the drivers hearing the 2-D pipeline's warnings."""
+"""``acc-fusion sumo``: FCW in SUMO traffic, FCW off and on on the same seed, in the 2-D world
+(every object, trackers, in-path selection; alerts by class and cause) or, with ``--pair``, in
+the 1-D pair world; ``--open-loop`` the 2-D pipeline without drivers, under several conditions;
+``--seeds`` many seeds in parallel processes (or on Ray), pooled."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import argparse
 from dataclasses import replace
 
 from acc_fusion.cli.common import (
+    add_executor_arguments,
     add_sim_arguments,
     add_traffic_arguments,
     positive_float,
@@ -19,9 +21,11 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.cli.world import parse_conditions
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir, write_csv_atomic
+from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
 from acc_fusion.studies.traffic import sumo_study
 from acc_fusion.studies.world import WorldStudy, sumo_world_study
+from acc_fusion.sweep.executors import make_map
+from acc_fusion.sweep.seeds import parse_seeds, seeds_study
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 
 
@@ -31,16 +35,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "sumo",
         help="FCW in SUMO traffic: false alarms per method, collisions with FCW on and off",
         description="Run a SUMO scenario (a bundled network or any .sumocfg) with libsumo, "
-        "embedded: every equipped vehicle and its leader are a pair. Twice, in two "
-        "processes: FCW off (every method watches, no driver is warned) and FCW on (the "
-        "federated alerts make equipped drivers brake), on the same seed. Prints false "
-        "alarms per hour and per 100 km, miss rate, lead time and collisions, with 95% "
-        "intervals, the alerts by class judged from truth, and the crashes FCW avoids: "
-        "paired by vehicle (bootstrap interval), and each crash of the FCW-off run replayed "
-        "with every method's warnings (Wilson interval). "
-        "The equipped drivers look away from the road now and then (--distraction). "
-        "With --world, the 2-D object pipeline instead, open loop (FCW off); with "
-        "--world --closed-loop, FCW off and on as above with the 2-D pipeline's warnings.",
+        "embedded, every vehicle equipped. Twice, in two processes, on the same seed: FCW off "
+        "(every method watches, no driver is warned) and FCW on (the federated alerts make "
+        "the equipped drivers brake). The equipped drivers look away from the road now and "
+        "then (--distraction), leads brake hard now and then (--hazard-rate). By default in "
+        "the 2-D world (radar and thermal camera seeing every object ahead, trackers, "
+        "in-path selection; world.* settings); --pair for the 1-D pair world. Prints per "
+        "method the false alarms, misses and lead time, the alerts by class judged from "
+        "truth (and, in the 2-D world, by cause) per 100 km with 95% intervals, and the "
+        "crashes FCW avoids: paired by vehicle (bootstrap interval), and each crash of the "
+        "FCW-off run replayed with every method's warnings (Wilson interval). --seeds runs "
+        "many seeds and pools them.",
     )
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--net", help="bundled network: motorway, onramp, ring, arterial")
@@ -62,27 +67,31 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "FCW-off run (a cross-check of the TTC; more than doubles that run's time)",
     )
     p.add_argument(
-        "--world",
+        "--pair",
         action="store_true",
-        help="run the 2-D object pipeline instead (radar and thermal camera seeing every object "
-        "ahead, trackers, association, every method's estimator per object, in-path selection; "
-        "world.* settings): open loop, FCW off (no driver reacts to a warning); prints per "
-        "method the alerts by class per 100 km and the nuisance and sensing-false alerts by "
-        "cause",
+        help="the 1-D pair world instead of the 2-D one: each sensor sees only the true leader "
+        "of its vehicle (the design's exact form; faster, for large sweeps)",
     )
     p.add_argument(
-        "--closed-loop",
+        "--open-loop",
         action="store_true",
-        help="with --world: FCW off and on, as without --world, the equipped drivers hearing "
-        "the 2-D pipeline's federated warnings (one condition); prints the same tables and the "
-        "FCW-off run's alerts by cause",
+        help="the 2-D pipeline open loop, FCW off (no driver reacts to a warning, nobody "
+        "distracted): the alerts by class and cause under each of --conditions",
     )
+    p.add_argument(
+        "--seeds",
+        metavar="SEEDS",
+        help="run these seeds (e.g. 0-9 or 1,4,7) in parallel processes and pool them: rates "
+        "over all the exposure, the paired benefit over all the vehicles; with --out, "
+        "finished runs are kept in OUT/runs and an interrupted study resumes",
+    )
+    add_executor_arguments(p, "with --seeds: ")
     p.add_argument(
         "--conditions",
         nargs="+",
         metavar="C",
-        help="with --world: weather and light, day, night, fog=METRES, rain=MM_PER_H joined by "
-        "'+', one SUMO run each (default: day)",
+        help="2-D world: weather and light, day, night, fog=METRES, rain=MM_PER_H joined by "
+        "'+' (default: day); several only with --open-loop, one SUMO run each",
     )
     add_sim_arguments(p, None)
     p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
@@ -90,13 +99,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run_world(args: argparse.Namespace, path, sumo_cfg, conditions) -> int:
-    """``acc-fusion sumo --world``, open loop, once per condition: print the tables (and write
-    them with ``--out``)."""
+    """``acc-fusion sumo --open-loop``, once per condition: print the tables (and write them
+    with ``--out``)."""
     sim = sim_config(args, runs=1)
     if sim.drive is not None:
-        raise ConfigError(
-            "--world runs open loop, nobody driving on the warnings; add --closed-loop"
-        )
+        raise ConfigError("--open-loop runs without drivers reacting to warnings; drop it")
     out = output_dir(args.out) if args.out else None
     study = sumo_world_study(sumo_cfg, sim, conditions, progress=True)
     stem = f"sumo_world_{path.stem}_seed{sumo_cfg.seed}"
@@ -104,53 +111,77 @@ def run_world(args: argparse.Namespace, path, sumo_cfg, conditions) -> int:
     return 0
 
 
+def _check(args: argparse.Namespace, conditions: list) -> None:
+    """Refuse the flags that do not go together, in one sentence each."""
+    world = not args.pair
+    if args.pair and (args.open_loop or args.conditions):
+        raise ConfigError("--open-loop and --conditions are settings of the 2-D world; drop --pair")
+    if world and (args.gui or args.ssm):
+        raise ConfigError("the 2-D world runs headless, without the SSM cross-check; add --pair")
+    if args.open_loop and (args.all_drives or args.seeds):
+        raise ConfigError("--open-loop runs one seed without drivers; drop --all-drives, --seeds")
+    if not args.open_loop and len(conditions) > 1:
+        raise ConfigError("a closed loop runs one condition; give --conditions one value")
+    if args.seeds and (args.gui or args.seed is not None):
+        raise ConfigError("--seeds runs headless over its own seeds; drop --gui and --seed")
+    if not args.seeds and (args.address or args.executor != "local"):
+        raise ConfigError("--executor and --address are settings of --seeds")
+
+
 def run(args: argparse.Namespace) -> int:
     """``acc-fusion sumo``: print the tables (and write them with ``--out``)."""
     path = resolve_sumocfg(args.net, args.sumocfg)
-    for flag, given in (("--conditions", args.conditions), ("--closed-loop", args.closed_loop)):
-        if given and not args.world:
-            raise ConfigError(f"{flag} is a setting of the 2-D pipeline; add --world")
-    if args.world and (args.gui or args.ssm):
-        raise ConfigError("--world runs headless, without the SSM cross-check; drop --gui, --ssm")
-    if args.world and args.all_drives and not args.closed_loop:
-        raise ConfigError("--world runs open loop unless --closed-loop; add it for --all-drives")
     conditions = [parse_conditions(c) for c in args.conditions or ["day"]]
-    if args.closed_loop and len(conditions) > 1:
-        raise ConfigError("--closed-loop runs one condition; give --conditions one value")
+    _check(args, conditions)
+    seeds = parse_seeds(args.seeds) if args.seeds else None
+    mapper = make_map(args.executor, args.workers, args.address) if seeds else None
     sumo_cfg = traffic_config(
         args, path, seed=args.seed or 0, gui=args.gui, step_length=args.step_length
     )
-    if args.world and not args.closed_loop:
+    if args.open_loop:
         return run_world(args, path, sumo_cfg, conditions)
     out = output_dir(args.out) if args.out else None
+    world = not args.pair
     sim = traffic_sim_config(args)
-    if args.world:
+    if world:
         sim = replace(sim, world=replace(sim.world, conditions=conditions[0]))
     drives = sim.methods if args.all_drives else ()
-    study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=args.world)
+    if seeds:
+        store = out / "runs" if out else None
+        study, _ = seeds_study(
+            sumo_cfg, sim, seeds, mapper, drives=drives, world=world, store=store
+        )
+        stem, seed_field = f"sumo_{path.stem}_seeds", list(seeds)
+    else:
+        study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=world)
+        stem, seed_field = f"sumo_{path.stem}_seed{sumo_cfg.seed}", sumo_cfg.seed
     table = study.table()
+    if seeds:
+        table.title += f", {len(seeds)} seeds pooled"
     print(table.format() + "\n\n" + study.classes().format())
     causes = {}
-    if args.world:
+    if world:
         runs = {(path.stem, conditions[0].label): study.off.summaries}
-        world = WorldStudy(sim, runs, where=f"SUMO {path.stem}, FCW off")
-        causes = {"causes": world.causes(), "cause_rates": world.cause_rates()}
+        where = f"SUMO {path.stem}, FCW off" + (f", {len(seeds)} seeds" if seeds else "")
+        world_study = WorldStudy(sim, runs, where=where)
+        causes = {"causes": world_study.causes(), "cause_rates": world_study.cause_rates()}
         print("\n" + causes["causes"].format())
     print("\n" + study.benefits().format())
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
     if out is not None:
-        stem = f"sumo_{path.stem}_seed{sumo_cfg.seed}"
         for name, t in causes.items():
             write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
+        if world:
+            save_figure_atomic(world_study.figure(), out / f"{stem}_causes.png")
         write_study(
             out,
             stem,
             table,
             study,
             sumocfg=str(path),
-            seed=sumo_cfg.seed,
+            seed=seed_field,
             ssm=study.ssm_agreement(),
             benefit=study.benefit().as_dict(),
             benefit_by_method={m: b.as_dict() for m, b in study.benefit_by_method().items()},

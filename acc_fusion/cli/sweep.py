@@ -7,11 +7,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acc_fusion.cli.common import positive_int
+from acc_fusion.cli.common import add_executor_arguments
 from acc_fusion.core.table import Table
 from acc_fusion.sweep.aggregate import aggregate, formatted
 from acc_fusion.sweep.config import load_sweep
-from acc_fusion.sweep.executors import EXECUTORS
 from acc_fusion.sweep.run import run_sweep
 
 
@@ -28,20 +27,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("config", metavar="CONFIG", help="sweep config file (.toml, .yaml or .yml)")
 
-    p.add_argument(
-        "--executor", choices=EXECUTORS, default="local", help="where to run (default local)"
-    )
-    p.add_argument(
-        "--address",
-        metavar="ADDR",
-        help="Ray cluster address HOST:PORT or ray://HOST:PORT (default: a local Ray)",
-    )
-    p.add_argument(
-        "--workers",
-        type=positive_int,
-        default=2,
-        help="worker processes (local) or CPUs of the local Ray (default 2)",
-    )
+    add_executor_arguments(p)
     p.add_argument("--out", metavar="DIR", help="output folder (default out/sweep_<name>)")
     return p
 

@@ -25,6 +25,11 @@ import numpy as np
 
 from acc_fusion.core.validation import check_range
 
+#: Fewer crashes with FCW off than this give no interval worth printing (a bootstrap over two
+#: crashes spans [-3, 1]): the tables say so in words.  Assumption: five events is the
+#: usual floor below which resampling intervals are not reported.
+MIN_CRASHES = 5
+
 
 @dataclass(frozen=True)
 class Benefit:

@@ -86,6 +86,7 @@ Per pair
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -100,6 +101,8 @@ from acc_fusion.metrics.summary import (
     CAUSE_CELLS,
     CAUSE_COUNTS,
     CAUSES,
+    COUNTS,
+    DISTRIBUTIONS,
     FCWSummary,
     event_rates,
 )
@@ -108,11 +111,6 @@ from acc_fusion.metrics.summary import (
 LEAD_TIME_BINS = (-60.0, 60.0, 0.01)
 TTC_BINS = (0.0, 60.0, 0.01)
 
-#: The event counts of :meth:`FCWMetrics.per_pair` (and of a sweep's rows), in order.
-COUNTS = (
-    "warnings", "false_alarms", "threats", "detected", "missed", "collisions", *ALERT_CLASSES,
-    "relevant", "relevant_detected", "relevant_missed", "threats_relevant",
-)  # fmt: skip
 #: Indices of the class and the causes that :meth:`FCWMetrics._count_causes` re-labels.
 _SENSING_FALSE = ALERT_CLASSES.index("sensing_false")
 _LEAD, _NOISE = CAUSES.index("lead"), CAUSES.index("noise")
@@ -470,4 +468,18 @@ class FCWMetrics(PairState):
                 else None
             ),
             per_pair=self.per_pair(),
+            histograms=copy.deepcopy(
+                dict(
+                    zip(
+                        DISTRIBUTIONS,
+                        (
+                            self._lead_time,
+                            self._relevant_lead_time,
+                            self._ttc_matched,
+                            self._ttc_all,
+                        ),
+                        strict=True,
+                    )
+                )
+            ),  # fmt: skip
         )

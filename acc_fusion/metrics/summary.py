@@ -1,19 +1,29 @@
 """The summary of a run's FCW metrics (:class:`FCWSummary`: counts, exposure, rates with exact
-Poisson and Wilson intervals, lead time and TTC distributions, the confusion of levels) and the
-rates of event counts (:func:`event_rates`)."""
+Poisson and Wilson intervals, lead time and TTC distributions, the confusion of levels), the
+rates of event counts (:func:`event_rates`) and the summary of several runs pooled
+(:func:`pool_summaries`)."""
 
 from __future__ import annotations
 
+import copy
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
+from acc_fusion.core.errors import InputError
 from acc_fusion.core.levels import LEVEL_NAMES
-from acc_fusion.metrics.stats import Distribution, Rate
+from acc_fusion.metrics.stats import Distribution, Histogram, Rate
 
 #: The classes of a warning, judged from truth (:mod:`acc_fusion.metrics.events`).
 ALERT_CLASSES = ("crash_relevant", "nuisance", "sensing_false")
+
+#: The event counts of :meth:`~acc_fusion.metrics.events.FCWMetrics.per_pair`, of an
+#: :class:`FCWSummary` (and of a sweep's rows), in order.
+COUNTS = (
+    "warnings", "false_alarms", "threats", "detected", "missed", "collisions", *ALERT_CLASSES,
+    "relevant", "relevant_detected", "relevant_missed", "threats_relevant",
+)  # fmt: skip
 
 #: What a warning was given on, judged from truth at its onset (the 2-D world's
 #: :mod:`acc_fusion.sim.world`): the true in-path lead; a stationary object (parked car,
@@ -68,6 +78,9 @@ class FCWSummary:
             causes (the 1-D pipeline).
         per_pair: the per-pair figures of :meth:`FCWMetrics.per_pair` (arrays ``(N,)``), or
             ``None``; left out of :meth:`as_dict`, :meth:`format` and comparisons.
+        histograms: the streamed samples behind the four distributions (keys
+            :data:`DISTRIBUTIONS`), so that :func:`pool_summaries` pools them exactly, or
+            ``None``; left out like ``per_pair``.
     """
 
     warn_level: int
@@ -102,6 +115,7 @@ class FCWSummary:
     confusion: tuple[tuple[int, int, int], ...]
     by_cause: dict[str, dict[str, int]] | None = None
     per_pair: dict[str, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    histograms: dict[str, Histogram] | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
         """Plain nested dicts (without ``per_pair``); NaN and ±inf become ``None``; the alert
@@ -116,7 +130,8 @@ class FCWSummary:
                 return None
             return x
 
-        out = {k: v for k, v in asdict(self).items() if k != "per_pair"}
+        out = asdict(replace(self, per_pair=None, histograms=None))
+        del out["per_pair"], out["histograms"]
         if out["by_cause"] is None:
             del out["by_cause"]
         for key in ("alerts_per_hour", "alerts_per_100km"):  # {class: x, class_lo:, class_hi:}
@@ -189,3 +204,57 @@ def event_rates(count: dict, hours: float, km: float, confidence: float = 0.95) 
             count["relevant_missed"], count["relevant"], confidence
         ),
     }
+
+
+#: The distributions of an :class:`FCWSummary`, each from the histogram of the same name.
+DISTRIBUTIONS = ("lead_time", "relevant_lead_time", "ttc_at_warning", "ttc_at_any_warning")
+
+
+def pool_summaries(summaries: list[FCWSummary]) -> FCWSummary:
+    """The summary of several runs of one method pooled, as if they were one run: counts,
+    exposure and the confusion of levels added, the rates and their intervals computed on the
+    totals (:func:`event_rates`), the distributions from the histograms merged (exact to a
+    bin, as for one run), the per-pair figures concatenated.
+
+    Raises :class:`~acc_fusion.core.errors.InputError` for no summary, summaries of different
+    rules or confidence, or a summary without its histograms.
+    """
+    if not summaries:
+        raise InputError("pool_summaries needs at least one summary")
+    first = summaries[0]
+    rule = (first.warn_level, first.tolerance, first.confidence)
+    if any((s.warn_level, s.tolerance, s.confidence) != rule for s in summaries):
+        raise InputError("pool_summaries needs summaries of one warning rule and confidence")
+    if any(s.histograms is None for s in summaries):
+        raise InputError("pool_summaries needs summaries that carry their histograms")
+    count = {k: sum(getattr(s, k) for s in summaries) for k in COUNTS}
+    hours, km = sum(s.hours for s in summaries), sum(s.km for s in summaries)
+    histograms = {}
+    for name in DISTRIBUTIONS:
+        merged = copy.deepcopy(first.histograms[name])
+        for s in summaries[1:]:
+            merged.merge(s.histograms[name])
+        histograms[name] = merged
+    confusion = np.sum([np.array(s.confusion) for s in summaries], axis=0)
+    by_cause = None
+    if all(s.by_cause is not None for s in summaries):
+        by_cause = {
+            c: {k: sum(s.by_cause[c][k] for s in summaries) for k in CAUSES} for c in ALERT_CLASSES
+        }
+    per_pair = None
+    if all(s.per_pair is not None for s in summaries):
+        per_pair = {k: np.concatenate([s.per_pair[k] for s in summaries]) for k in first.per_pair}
+    return FCWSummary(
+        warn_level=first.warn_level,
+        tolerance=first.tolerance,
+        confidence=first.confidence,
+        **count,
+        hours=hours,
+        km=km,
+        **event_rates(count, hours, km, first.confidence),
+        **{name: h.distribution() for name, h in histograms.items()},
+        confusion=tuple(tuple(int(c) for c in row) for row in confusion),
+        by_cause=by_cause,
+        per_pair=per_pair,
+        histograms=histograms,
+    )

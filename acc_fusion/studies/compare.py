@@ -13,7 +13,7 @@ import numpy as np
 
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.table import Table
-from acc_fusion.metrics.benefit import Benefit, paired_benefit
+from acc_fusion.metrics.benefit import MIN_CRASHES, Benefit, paired_benefit
 from acc_fusion.metrics.protocols import REQUIREMENTS
 from acc_fusion.metrics.summary import ALERT_CLASSES, FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, SimResult, simulate
@@ -97,6 +97,16 @@ BENEFIT_COLUMNS = (
 )  # fmt: skip
 
 
+def reduction_text(b: Benefit) -> str:
+    """The reduction of ``b`` with its interval, in words where the crashes are too few for
+    one: none with FCW off, or fewer than :data:`~acc_fusion.metrics.benefit.MIN_CRASHES`."""
+    if b.crashes_off == 0:
+        return "no crash with FCW off"
+    if b.crashes_off < MIN_CRASHES:
+        return f"{b.reduction:.3g} (too few crashes for an interval: {b.crashes_off})"
+    return f"{b.reduction:.3g} [{b.reduction_lo:.3g}, {b.reduction_hi:.3g}]"
+
+
 def benefit_table(
     title: str, benefits: dict[str, Benefit], unit: str = "vehicles", note: str | None = None
 ) -> Table:
@@ -112,7 +122,7 @@ def benefit_table(
                 "pairs": b.vehicles,
                 "crashes_fcw_off": b.crashes_off,
                 "crashes_fcw_on": b.crashes_on,
-                "reduction": f"{b.reduction:.3g} [{b.reduction_lo:.3g}, {b.reduction_hi:.3g}]",
+                "reduction": reduction_text(b),
                 "per_million_km_off": b.per_million_km_off,
                 "per_million_km_on": b.per_million_km_on,
                 "avoided": b.avoided,

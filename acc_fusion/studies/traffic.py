@@ -29,7 +29,7 @@ import numpy as np
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
-from acc_fusion.metrics.summary import FCWSummary
+from acc_fusion.metrics.summary import FCWSummary, pool_summaries
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
@@ -247,6 +247,43 @@ class SumoStudy:
         return next(iter(run.summaries), "fcw")
 
 
+#: The name of the FCW-off run, of the FCW-on run, and the prefix of the FCW-on runs driven by
+#: further methods, in :func:`study_runs`.
+OFF, ON, ALSO = "off", "on", "on:"
+
+
+def study_runs(
+    sumo_config, sim: SimConfig, *, drives: tuple[str, ...] = (), ssm: bool = False,
+    world: bool = False, progress: bool = False,
+) -> dict[str, tuple]:  # fmt: skip
+    """The runs of a study of ``sumo_config`` (:func:`sumo_study`), by name (:data:`OFF`,
+    :data:`ON`, :data:`ALSO` + method): the arguments of the worker function :func:`run_one`.
+    Only the FCW-off run shows a progress bar, and only the FCW-on run a ``sumo-gui``."""
+    drive = sim.drive or sim.methods[-1]
+    distracted = sim.driver.distraction.rate > 0
+    headless = replace(sumo_config, gui=False)
+    off_sim = replace(sim, drive=drive if distracted else None)
+    runs = {OFF: (headless, off_sim, progress, ssm, False, world)}
+
+    def fcw_on(method: str, config) -> tuple:
+        return (config, replace(sim, drive=method, methods=(method,)), False, False, True, world)
+
+    runs[ON] = fcw_on(drive, sumo_config)
+    runs |= {ALSO + m: fcw_on(m, headless) for m in drives if m != drive}
+    return runs
+
+
+def run_one(args: tuple) -> SumoRun:
+    """One run of :func:`study_runs` (in a worker process)."""
+    return _run(*args)
+
+
+def assemble(sumo_config, sim: SimConfig, runs: dict[str, SumoRun]) -> SumoStudy:
+    """The :class:`SumoStudy` of the runs of :func:`study_runs`, by name."""
+    also = {name[len(ALSO) :]: run for name, run in runs.items() if name.startswith(ALSO)}
+    return SumoStudy(Path(sumo_config.sumocfg), runs[OFF], runs[ON], also, sim.driver)
+
+
 def sumo_study(
     sumo_config,
     sim: SimConfig,
@@ -263,24 +300,55 @@ def sumo_study(
     warning level); the other runs stay headless.  With ``world`` every run perceives with
     the 2-D pipeline (settings ``sim.world``), so its summaries have the alerts by cause and
     the warnings the drivers hear are the 2-D pipeline's."""
-    drive = sim.drive or sim.methods[-1]
-    distracted = sim.driver.distraction.rate > 0
+    runs = study_runs(sumo_config, sim, drives=drives, ssm=ssm, world=world, progress=progress)
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
-        headless = replace(sumo_config, gui=False)
-        off_sim = replace(sim, drive=drive if distracted else None)
-        off = pool.submit(_run, headless, off_sim, progress, ssm, False, world)
+        futures = {name: pool.submit(run_one, args) for name, args in runs.items()}
+        return assemble(sumo_config, sim, {name: f.result() for name, f in futures.items()})
 
-        def fcw_on(method: str, config):
-            on_sim = replace(sim, drive=method, methods=(method,))
-            return pool.submit(_run, config, on_sim, False, False, True, world)
 
-        on = fcw_on(drive, sumo_config)
-        also = {m: fcw_on(m, headless) for m in drives if m != drive}
-        return SumoStudy(
-            Path(sumo_config.sumocfg),
-            off.result(),
-            on.result(),
-            {m: run.result() for m, run in also.items()},
-            sim.driver,
-        )
+def pool_runs(runs: dict[int, SumoRun]) -> SumoRun:
+    """The same run of several seeds as one (``runs`` by seed): every method's summaries
+    pooled (:func:`~acc_fusion.metrics.summary.pool_summaries`), counts added, the vehicles
+    and crashes kept apart by seed (ids ``"<seed>:<id>"``), so that the paired benefit and
+    the replayed crashes pool over every seed's vehicles."""
+    seeds = sorted(runs)
+    first = runs[seeds[0]]
+    summaries = {
+        m: pool_summaries([runs[k].summaries[m] for k in seeds if m in runs[k].summaries])
+        for m in first.summaries
+    }
+    errors = [f"seed {k}: {runs[k].error}" for k in seeds if runs[k].error]
+    ssm = None
+    if all(runs[k].ssm_pairs is not None for k in seeds):
+        ssm = [p for k in seeds for p in runs[k].ssm_pairs]
+    conflicts = None
+    if all(runs[k].conflicts is not None for k in seeds):
+        conflicts = [c for k in seeds for c in runs[k].conflicts]
+    return SumoRun(
+        summaries,
+        sum(runs[k].collisions for k in seeds),
+        sum(runs[k].equipped for k in seeds),
+        sum(runs[k].hazards for k in seeds),
+        ssm,
+        "; ".join(errors) or None,
+        sum(runs[k].steps for k in seeds),
+        {f"{k}:{v}" for k in seeds for v in runs[k].vehicles},
+        {f"{k}:{v}": speed for k in seeds for v, speed in runs[k].crashes.items()},
+        conflicts,
+    )
+
+
+def pool_studies(studies: dict[int, SumoStudy]) -> SumoStudy:
+    """The studies of several seeds (by seed) as one :class:`SumoStudy`: each run pooled over
+    the seeds by :func:`pool_runs`."""
+    seeds = sorted(studies)
+    first = studies[seeds[0]]
+    also = {m: pool_runs({k: studies[k].also[m] for k in seeds}) for m in first.also}
+    return SumoStudy(
+        first.sumocfg,
+        pool_runs({k: studies[k].off for k in seeds}),
+        pool_runs({k: studies[k].on for k in seeds}),
+        also,
+        first.driver,
+    )

@@ -1,6 +1,6 @@
 """The 2-D world under each weather and light condition, every method: alerts by class and by
 cause — of the scripted scenes (:func:`world_study`, the tables and the figure of ``acc-fusion
-world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --world``)."""
+world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open-loop``)."""
 
 from __future__ import annotations
 

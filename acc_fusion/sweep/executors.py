@@ -1,4 +1,9 @@
-"""Executors of a sweep: where its chunks run (:mod:`acc_fusion.sweep.run`).
+"""Executors: where parallel runs go, a sweep's chunks (:mod:`acc_fusion.sweep.run`) and the
+runs of a many-seed SUMO study (:mod:`acc_fusion.sweep.seeds`).
+
+:func:`make_map` checks the settings once and returns a map of any picklable function over a
+list of items, yielding ``(item, result)`` as each finishes (:func:`local_map`,
+:func:`ray_map`); :func:`make_executor` is that map over a sweep's chunks.
 
 An executor takes the chunks still to run and yields ``(chunk, columns)`` as each finishes,
 in any order; the sweep stores every chunk's rows as it arrives.  A chunk's rows depend only
@@ -19,6 +24,7 @@ on Ray.
 
 from __future__ import annotations
 
+import importlib.util
 import multiprocessing
 import os
 import socket
@@ -28,6 +34,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import TypeVar
 
 import numba
 
@@ -42,6 +49,8 @@ RAY_CONNECT_TIMEOUT = 5.0
 #: Seconds allowed for ``ray.init`` to connect to a cluster (in a probe process).
 RAY_PROBE_TIMEOUT = 30.0
 
+
+T, R = TypeVar("T"), TypeVar("R")
 
 #: An executor runs chunks and yields ``(chunk, columns)`` as they finish, in any order.
 Executor = Callable[[list["Chunk"]], Iterator[tuple["Chunk", dict]]]
@@ -60,44 +69,48 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def run_chunk_alone(chunk: Chunk) -> dict:
-    """:func:`~acc_fusion.sweep.chunks.run_chunk` in a worker given one core (a Ray task of
-    ``num_cpus=1``): on one numba thread, as the local pool's workers."""
+def run_alone(fn: Callable[[T], R], item: T) -> R:
+    """``fn(item)`` in a worker given one core (a Ray task of ``num_cpus=1``): on one numba
+    thread, as the local pool's workers."""
     numba.set_num_threads(1)
-    return run_chunk(chunk)
+    return fn(item)
 
 
-def local_executor(workers: int = 2) -> Executor:
-    """A pool of ``workers`` processes (spawned); SUMO chunks get a fresh process each."""
+def _is_sumo(chunk: Chunk) -> bool:
+    """Whether a chunk runs SUMO (and so needs a process of its own)."""
+    return chunk.point.source == "sumo"
 
-    def run(chunks: list[Chunk]) -> Iterator[tuple[Chunk, dict]]:
 
-        if not chunks:
-            return
-        ctx = multiprocessing.get_context("spawn")
-        kw = {"mp_context": ctx, "initializer": _watch_parent, "initargs": (os.getpid(),)}
-        sumo = [c for c in chunks if c.point.source == "sumo"]
-        scripted = [c for c in chunks if c.point.source != "sumo"]
-        if sumo and sys.version_info < (3, 11):
-            raise AccFusionError("SUMO sweeps need Python >= 3.11 (one process per SUMO run)")
-        pools = []
-        try:
-            futures = {}
-            if scripted:
-                pools.append(ProcessPoolExecutor(workers, **kw))
-                futures |= {pools[-1].submit(run_chunk, c): c for c in scripted}
-            if sumo:
-                pools.append(ProcessPoolExecutor(workers, max_tasks_per_child=1, **kw))
-                futures |= {pools[-1].submit(run_chunk, c): c for c in sumo}
-            while futures:
-                done, _ = wait(futures, return_when=FIRST_COMPLETED)
-                for f in done:
-                    yield futures.pop(f), f.result()
-        finally:
-            for pool in pools:
-                pool.shutdown(wait=False, cancel_futures=True)
-
-    return run
+def local_map(
+    fn: Callable[[T], R], items: list[T], workers: int = 2, fresh: Callable[[T], bool] = bool
+) -> Iterator[tuple[T, R]]:
+    """``fn`` over ``items`` in a pool of ``workers`` spawned processes, yielding ``(item,
+    result)`` as each finishes; the items for which ``fresh`` is true get a process each
+    (libsumo: one simulation per process)."""
+    if not items:
+        return
+    ctx = multiprocessing.get_context("spawn")
+    kw = {"mp_context": ctx, "initializer": _watch_parent, "initargs": (os.getpid(),)}
+    alone = [c for c in items if fresh(c)]
+    shared = [c for c in items if not fresh(c)]
+    if alone and sys.version_info < (3, 11):
+        raise AccFusionError("SUMO runs in parallel need Python >= 3.11 (one process per run)")
+    pools = []
+    try:
+        futures = {}
+        if shared:
+            pools.append(ProcessPoolExecutor(workers, **kw))
+            futures |= {pools[-1].submit(fn, c): c for c in shared}
+        if alone:
+            pools.append(ProcessPoolExecutor(workers, max_tasks_per_child=1, **kw))
+            futures |= {pools[-1].submit(fn, c): c for c in alone}
+        while futures:
+            done, _ = wait(futures, return_when=FIRST_COMPLETED)
+            for f in done:
+                yield futures.pop(f), f.result()
+    finally:
+        for pool in pools:
+            pool.shutdown(wait=False, cancel_futures=True)
 
 
 def check_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT) -> None:
@@ -145,51 +158,67 @@ def check_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT) -> None:
     )
 
 
-def ray_executor(workers: int = 2, address: str | None = None) -> Executor:
-    """Ray tasks, one per chunk: a local Ray with ``workers`` CPUs by default, or the existing
-    cluster at ``address`` (its nodes need acc_fusion installed).  A SUMO chunk runs in a Ray
-    worker process that exits after it (``max_calls=1``)."""
-    try:
-        import ray
-    except ImportError:
-        raise ConfigError("the ray executor needs Ray: pip install 'acc_fusion[ray]'") from None
-    if address:
-        check_address(address)
+def ray_map(
+    fn: Callable[[T], R],
+    items: list[T],
+    workers: int = 2,
+    address: str | None = None,
+    fresh: Callable[[T], bool] = bool,
+) -> Iterator[tuple[T, R]]:
+    """``fn`` over ``items`` as Ray tasks, yielding ``(item, result)`` as each finishes: on a
+    local Ray with ``workers`` CPUs by default, or on the existing cluster at ``address`` (its
+    nodes need acc_fusion installed; checked by :func:`make_map`).  An item for which ``fresh``
+    is true runs in a Ray worker process that exits after it (``max_calls=1``)."""
+    import ray
 
-    def run(chunks: list[Chunk]) -> Iterator[tuple[Chunk, dict]]:
-        if not chunks:
-            return
-        started = not ray.is_initialized()
-        if started:
-            kw = {"address": address} if address else {"num_cpus": workers}
-            try:
-                ray.init(include_dashboard=False, log_to_driver=False, **kw)
-            except (ConnectionError, RuntimeError, ValueError) as exc:
-                reason = str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
-                raise AccFusionError(f"cannot start Ray ({reason})") from None
-
+    if not items:
+        return
+    started = not ray.is_initialized()
+    if started:
+        kw = {"address": address} if address else {"num_cpus": workers}
         try:
-            task = ray.remote(num_cpus=1)(run_chunk_alone)
-            sumo_task = ray.remote(num_cpus=1, max_calls=1)(run_chunk_alone)
-            refs = {(sumo_task if c.point.source == "sumo" else task).remote(c): c for c in chunks}
-            while refs:
-                done, _ = ray.wait(list(refs), num_returns=1)
-                for ref in done:
-                    yield refs.pop(ref), ray.get(ref)
-        finally:
-            if started:
-                ray.shutdown()
+            ray.init(include_dashboard=False, log_to_driver=False, **kw)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            reason = str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
+            raise AccFusionError(f"cannot start Ray ({reason})") from None
+    try:
+        task = ray.remote(num_cpus=1)(run_alone)
+        alone = ray.remote(num_cpus=1, max_calls=1)(run_alone)
+        refs = {(alone if fresh(c) else task).remote(fn, c): c for c in items}
+        while refs:
+            done, _ = ray.wait(list(refs), num_returns=1)
+            for ref in done:
+                yield refs.pop(ref), ray.get(ref)
+    finally:
+        if started:
+            ray.shutdown()
 
-    return run
+
+#: A map over items in worker processes: ``(fn, items, fresh)`` to ``(item, result)`` pairs as
+#: they finish (:func:`local_map`, :func:`ray_map`).
+Mapper = Callable[..., Iterator[tuple]]
 
 
-def make_executor(name: str = "local", workers: int = 2, address: str | None = None) -> Executor:
-    """The executor ``name`` (one of :data:`EXECUTORS`)."""
+def make_map(name: str = "local", workers: int = 2, address: str | None = None) -> Mapper:
+    """The map of the executor ``name`` (one of :data:`EXECUTORS`) with ``workers`` processes
+    or, for Ray, the cluster at ``address``; checked at once (Ray installed, the cluster
+    reachable), so that a bad setting is one sentence before any work."""
     check_choice("executor", name, EXECUTORS)
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ConfigError(f"workers must be a whole number >= 1, got {workers!r}")
     if name == "local":
         if address:
             raise ConfigError("--address needs --executor ray")
-        return local_executor(workers)
-    return ray_executor(workers, address)
+        return lambda fn, items, fresh=bool: local_map(fn, items, workers, fresh)
+    if importlib.util.find_spec("ray") is None:
+        raise ConfigError("the ray executor needs Ray: pip install 'acc_fusion[ray]'")
+    if address:
+        check_address(address)
+    return lambda fn, items, fresh=bool: ray_map(fn, items, workers, address, fresh)
+
+
+def make_executor(name: str = "local", workers: int = 2, address: str | None = None) -> Executor:
+    """The executor ``name`` (one of :data:`EXECUTORS`): the chunks mapped by
+    :func:`make_map`, each SUMO chunk in a process of its own."""
+    mapper = make_map(name, workers, address)
+    return lambda chunks: mapper(run_chunk, chunks, _is_sumo)
