@@ -1,17 +1,22 @@
 """Does a traffic source drive like people?  Its kinematics beside naturalistic driving.
 
-Runs the source with its own drivers (SUMO's: nothing injected, nobody warned or distracted),
-reads every vehicle at every step after ``--warmup`` and prints, for each figure of
-:mod:`acc_fusion.metrics.realism` (braking onsets per 100 km at 3.0, 3.6 and 4.4 m/s²,
-car-following headways, TTC exposure, lane changes, speed and acceleration), its value beside
-the published naturalistic reference (:mod:`acc_fusion.metrics.realism_references`: the band,
-the source, pass or fail; "no reference" where none was found), then the definitions and full
-citations. ``--plot`` draws the figure of :mod:`acc_fusion.metrics.realism_plot`. The last line
-is ``hard_brakes_per_100km=<onsets of 4.4 m/s² or harder per 100 km>``.
+Runs the source with its own drivers (SUMO's or highway-env's: nothing injected, nobody warned
+or distracted) or reads a recording, takes every vehicle at every step from ``--warmup`` on
+(SUMO: seconds from the start, default 60; highway-env: seconds into every episode, default 5;
+a recording: seconds into it, default 0) to ``--end`` (default 300 s; a recording: its end),
+and prints, for each figure of :mod:`acc_fusion.metrics.realism` (braking onsets per 100 km at
+3.0, 3.6 and 4.4 m/s², car-following headways, TTC exposure, lane changes, speed and
+acceleration), its value beside the published naturalistic reference
+(:mod:`acc_fusion.metrics.realism_references`: the band, the source, pass or fail; "no
+reference" where none was found), then the definitions and full citations. ``--plot`` draws
+the figure of :mod:`acc_fusion.metrics.realism_plot`. The last line is
+``hard_brakes_per_100km=<onsets of 4.4 m/s² or harder per 100 km>``.
 
     python scripts/traffic_realism.py                             # bundled motorway, 60-300 s
     python scripts/traffic_realism.py --net onramp --plot realism.png
     python scripts/traffic_realism.py --sumocfg my.sumocfg --end 600 --warmup 120
+    python scripts/traffic_realism.py --highway highway-v0 --end 400
+    python scripts/traffic_realism.py --replay highd --path data/highD/
 """
 
 from __future__ import annotations
@@ -28,16 +33,36 @@ from acc_fusion.metrics.realism import RealismStats, realism_stats
 from acc_fusion.metrics.realism_plot import realism_figure
 from acc_fusion.metrics.realism_references import CheckRow, check
 from acc_fusion.metrics.stats import Rate
+from acc_fusion.truth.highway.config import SUPPORTED, HighwayConfig
+from acc_fusion.truth.highway.trajectories import highway_trajectories
+from acc_fusion.truth.replay.source import FORMATS, ReplayConfig
+from acc_fusion.truth.replay.trajectories import replay_trajectories
 from acc_fusion.truth.sumo.trajectories import sumo_trajectories
 from acc_fusion.truth.trajectories import Trajectories
 
 #: The threshold of the last line's hard braking [m/s²] (0.45 g).
 HARD = 4.4
+#: Defaults of ``--end`` (SUMO and highway-env; a recording: to its end) and ``--warmup``
+#: (SUMO: from the run's start; highway-env: from each episode's start; a recording: 0) [s].
+DEFAULT_END, SUMO_WARMUP, HIGHWAY_WARMUP = 300.0, 60.0, 5.0
 NAME = "traffic_realism.py"
 
 
 def collect(args: argparse.Namespace) -> Trajectories:
-    """The trajectories of the source the flags name, after the warm-up."""
+    """The trajectories of the source the flags name, from the warm-up on."""
+    if args.highway:
+        end = DEFAULT_END if args.end is None else args.end
+        warmup = HIGHWAY_WARMUP if args.warmup is None else args.warmup
+        config = HighwayConfig(args.highway, seed=args.seed)
+        return highway_trajectories(config, warmup, end)
+    if args.replay:
+        if not args.path:
+            raise AccFusionError("--replay needs --path (the recording's folder or file)")
+        warmup = 0.0 if args.warmup is None else args.warmup
+        config = ReplayConfig(args.replay, args.path)
+        return replay_trajectories(config, warmup, args.end)
+    args.end = DEFAULT_END if args.end is None else args.end
+    args.warmup = SUMO_WARMUP if args.warmup is None else args.warmup
     path, config = scenario_config(args)
     return sumo_trajectories(config, args.end, args.warmup, label=path.name)
 
@@ -102,7 +127,13 @@ def references_text(rows: list[CheckRow]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    add_scenario_arguments(p, 60.0, "measuring")
+    where = add_scenario_arguments(p, None, "measuring")
+    where.add_argument(
+        "--highway", metavar="ENV", help=f"a highway-env id ({', '.join(SUPPORTED)})"
+    )
+    where.add_argument("--replay", metavar="FORMAT", help=f"a recording ({', '.join(FORMATS)})")
+    p.add_argument("--path", help="--replay: the recording's folder (highD) or file")
+    p.set_defaults(end=None)  # by source: see DEFAULT_END
     p.add_argument("--plot", metavar="PNG", help="write the check's figure here")
     args = p.parse_args(argv)
     try:

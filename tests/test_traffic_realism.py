@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acc_fusion.core.errors import InputError
+from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.metrics.realism import (
     MAX_HEADWAY,
     braking_onsets,
@@ -232,3 +232,60 @@ def test_the_script_refuses_a_warmup_past_the_end():
     assert proc.stderr.strip().splitlines() == [
         "traffic_realism.py: error: --warmup must be in [0, --end), got 20"
     ]
+
+
+# ------------------------------------------------------------------ highway-env and recordings
+def test_the_highway_collector_reads_every_road_vehicle_of_every_episode():
+    """5 s of highway-v0 in episodes of 3 s with 10 vehicles and the controlled one, 1 s of
+    warm-up each: two episodes (the second cut at 5 s), ids never reused, time within the
+    episode, gaps bumper to bumper between highway-env's 5 m vehicles; a warm-up as long as
+    an episode is refused."""
+    pytest.importorskip("highway_env")
+    from acc_fusion.truth.highway.config import HighwayConfig
+    from acc_fusion.truth.highway.trajectories import highway_trajectories
+
+    config = HighwayConfig("highway-v0", duration=3.0, vehicles_count=10, seed=1)
+    traj = highway_trajectories(config, 1.0, 5.0, progress=False)
+    assert traj.dt == pytest.approx(1 / 15) and traj.label == "highway-v0"
+    assert traj.time.min() == pytest.approx(1.0) and traj.time.max() <= 3.0 + 1e-9
+    per_vehicle_steps = np.bincount(np.unique(traj.vehicle, return_inverse=True)[1])
+    assert np.unique(traj.vehicle).size == 2 * 11 and per_vehicle_steps.max() <= 31
+    has = np.isfinite(traj.gap)
+    assert has.any() and np.all(traj.lead_length[has] == 5.0) and traj.gap[has].min() >= 0
+    assert np.all(traj.lane >= 0) and realism_stats(traj).km > 0.5
+    with pytest.raises(ConfigError, match=r"warmup must be in \[0, 3\) s"):
+        highway_trajectories(config, 3.0, 4.0, progress=False)
+
+
+def test_the_replay_collector_reads_a_recording_with_its_leaders_and_lane_change(tmp_path):
+    """A synthetic highD recording (IDM traffic, one lane change at 10 s): every row is a
+    sample, the gaps are the simulation's, the one lane change is counted, and the warm-up
+    and end cut the recording's time."""
+    from acc_fusion.truth.replay.source import ReplayConfig
+    from acc_fusion.truth.replay.synthetic import simulate_traffic, write_highd
+    from acc_fusion.truth.replay.trajectories import replay_trajectories
+
+    sim = simulate_traffic(lanes=2, duration=30.0, dt=0.04, seed=3)
+    write_highd(sim, tmp_path, 7)
+    config = ReplayConfig("highd", str(tmp_path))
+    traj = replay_trajectories(config)
+    assert len(traj) == sim.vid.size and traj.dt == pytest.approx(0.04)
+    truth = np.sort(sim.gap()[np.isfinite(sim.gap())])
+    assert np.sort(traj.gap[np.isfinite(traj.gap)]) == pytest.approx(truth, abs=0.02)
+    assert realism_stats(traj).lane_changes == 1
+    assert traj.odometer.min() == 0.0 and traj.km == pytest.approx(
+        sim.speed.sum() * 0.04 / 1000, rel=1e-3
+    )
+    cut = replay_trajectories(config, 5.0, 20.0)
+    assert cut.time.min() >= 5.0 - 1e-9 and cut.time.max() <= 20.0 + 1e-9
+    assert 0 < len(cut) < len(traj)
+
+
+def test_the_script_checks_a_recording(tmp_path):
+    from acc_fusion.truth.replay.synthetic import simulate_traffic, write_highd
+
+    write_highd(simulate_traffic(lanes=2, duration=20.0, dt=0.04, seed=3), tmp_path, 1)
+    proc = run_script("--replay", "highd", "--path", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("highD 01: ")
+    assert re.fullmatch(r"hard_brakes_per_100km=\d+\.\d{3}", proc.stdout.strip().splitlines()[-1])

@@ -5,7 +5,9 @@ A truth source hands the FCW pipeline follower→leader *pairs* of its equipped 
 (:mod:`acc_fusion.metrics.realism`) needs instead the kinematics of *all* the traffic, every
 vehicle at every step, to compare with naturalistic driving. :class:`Trajectories` holds them
 as flat ``(M,)`` arrays, one entry per vehicle per step, in any order; a source's collector
-fills it: :func:`acc_fusion.truth.sumo.trajectories.sumo_trajectories` (SUMO).
+fills it: :func:`acc_fusion.truth.sumo.trajectories.sumo_trajectories` (SUMO),
+:func:`acc_fusion.truth.highway.trajectories.highway_trajectories` (highway-env) and
+:func:`acc_fusion.truth.replay.trajectories.replay_trajectories` (recorded traffic).
 
 Conventions (DESIGN.md): SI units; ``gap`` is bumper to bumper (NaN without a leader); a lane
 change is a change of ``lane`` while ``road`` stays the same (a change of road, e.g. SUMO's
