@@ -38,17 +38,24 @@ def realism_figure(
 
 def _onsets(ax, stats: RealismStats, references: tuple[Reference, ...]) -> None:
     x = np.arange(len(stats.thresholds))
-    rates = [stats.onsets_per_100km(b) for b in stats.thresholds]
-    ax.bar(x, np.maximum(rates, 1e-3), color="tab:red", label="this traffic")
-    for xi, b in zip(x, stats.thresholds, strict=True):
+    rates = np.array([stats.onsets_per_100km(b) for b in stats.thresholds])
+    floor = 1e-2  # the log axis's bottom: a rate of 0 draws no bar, only its label
+    ax.bar(x, np.where(rates > 0, rates, np.nan), bottom=floor, color="tab:red")
+    for xi, b, r in zip(x, stats.thresholds, rates, strict=True):
+        ax.annotate(f"{r:.3g}", (xi, max(r, floor)), ha="center", va="bottom", fontsize=8,
+                    color="tab:red", xytext=(0, 2), textcoords="offset points")  # fmt: skip
         ref = reference_of(f"onsets_{b:g}", references)
         if ref is not None:
             ax.plot([xi - 0.4, xi + 0.4], [ref.high, ref.high], "k-", lw=2)
             ax.annotate(ref.cite, (xi, ref.high), ha="center", va="top", fontsize=7,
                         xytext=(0, -3), textcoords="offset points")  # fmt: skip
     ax.set_yscale("log")
+    ax.set_ylim(floor, max(1e3, np.nanmax(rates, initial=0.0) * 3))
     ax.set_xticks(x, [f"≥ {b:g} m/s²" for b in stats.thresholds])
-    ax.set(ylabel="braking onsets per 100 km", title="hard braking (black: naturalistic, top)")
+    ax.set(
+        ylabel="braking onsets per 100 km",
+        title="hard braking (red: this traffic; black: naturalistic, top of band)",
+    )
 
 
 def headway_panel(ax, h: np.ndarray, references: tuple[Reference, ...] = REFERENCES) -> None:
