@@ -22,18 +22,17 @@ how far downstream the traffic settles after SUMO inserts its vehicles. The last
 from __future__ import annotations
 
 import argparse
-import bisect
 import math
 import sys
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from acc_fusion.cli.common import add_scenario_arguments, scenario_config
 from acc_fusion.core.errors import AccFusionError
+from acc_fusion.metrics.realism import braking_onsets, by_odometer
 from acc_fusion.truth.sumo.config import SumoConfig
-from acc_fusion.truth.sumo.launch import load_api, sumo_command
+from acc_fusion.truth.sumo.trajectories import sumo_trajectories
 
 #: Bins of the distance driven since entering the network [m] (``--by-distance``).
 DISTANCE_BINS = (0.0, 500.0, 1000.0, 2000.0, 4000.0, math.inf)
@@ -51,11 +50,6 @@ class HardBraking:
     km_by_distance: np.ndarray
 
 
-def _bin(distance: float) -> int:
-    """The :data:`DISTANCE_BINS` bin of ``distance`` [m] (per vehicle and step: no numpy)."""
-    return bisect.bisect_right(DISTANCE_BINS, distance) - 1
-
-
 def hard_braking(
     config: SumoConfig,
     end: float,
@@ -65,42 +59,20 @@ def hard_braking(
     progress: bool = True,
 ) -> HardBraking:
     """Hard-braking onsets, kilometres driven and the share of the vehicle-time spent braking
-    at ``threshold`` [m/s²] or harder, from ``warmup`` to ``end``."""
-    sumo = load_api(False)
-    sumo.start(sumo_command(config))
-    hard_time, time = 0.0, 0.0
-    by_onsets, by_km = np.zeros(len(DISTANCE_BINS) - 1), np.zeros(len(DISTANCE_BINS) - 1)
-    braking: set[str] = set()
-    try:
-        veh, dt = sumo.vehicle, sumo.simulation.getDeltaT()
-        if car_decel is not None:
-            for vtype in sumo.vehicletype.getIDList():
-                if sumo.vehicletype.getVehicleClass(vtype) == "passenger":
-                    sumo.vehicletype.setDecel(vtype, car_decel)
-        for k in tqdm(
-            range(1, int(round(end / dt)) + 1),
-            disable=None if progress else True,
-            desc="SUMO",
-            leave=False,
-        ):
-            sumo.simulationStep()
-            if k * dt < warmup:
-                continue
-            now = set()
-            for vid in veh.getIDList():
-                b = _bin(veh.getDistance(vid))
-                by_km[b] += veh.getSpeed(vid) * dt / 1000.0
-                time += dt
-                if veh.getAcceleration(vid) <= -threshold:
-                    now.add(vid)
-                    if vid not in braking:
-                        by_onsets[b] += 1
-            hard_time += len(now) * dt
-            braking = now
-    finally:
-        sumo.close()
-    share = hard_time / max(time, 1e-12)
-    return HardBraking(int(by_onsets.sum()), float(by_km.sum()), share, by_onsets, by_km)
+    at ``threshold`` [m/s²] or harder, from ``warmup`` to ``end``: every vehicle's samples
+    (:func:`~acc_fusion.truth.sumo.trajectories.sumo_trajectories`) counted by
+    :func:`~acc_fusion.metrics.realism.braking_onsets`."""
+
+    def set_car_decel(api) -> None:
+        for vtype in api.vehicletype.getIDList():
+            if api.vehicletype.getVehicleClass(vtype) == "passenger":
+                api.vehicletype.setDecel(vtype, car_decel)
+
+    setup = None if car_decel is None else set_car_decel
+    traj = sumo_trajectories(config, end, warmup, setup=setup, progress=progress)
+    onsets, km = by_odometer(traj, braking_onsets(traj, threshold), DISTANCE_BINS)
+    share = float(np.mean(traj.accel <= -threshold)) if len(traj) else 0.0
+    return HardBraking(int(onsets.sum()), float(km.sum()), share, onsets, km)
 
 
 def main(argv: list[str] | None = None) -> int:

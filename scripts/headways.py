@@ -1,7 +1,9 @@
 """Time headways of car following in a SUMO scenario, against the published distribution.
 
 Samples, once per simulated second after a warm-up, every vehicle faster than 5 m/s with a
-leader: its time headway front to front, :math:`h = (g + L_\\text{lead}) / v` (bumper gap
+leader (the definitions of :mod:`acc_fusion.metrics.realism`, which
+``scripts/traffic_realism.py`` applies at every step): its time headway front to front,
+:math:`h = (g + L_\\text{lead}) / v` (bumper gap
 ``g`` plus the leader's length, over the follower's speed), keeping :math:`h \\le 5` s (car
 following, as the reference does). The reference: King, Gold, Phillips & Krauss, "Headway
 times on urban, multiple lane freeways", Proc. HFES 66(1):1225-1229, 2022 (video of Los
@@ -21,47 +23,31 @@ import argparse
 import sys
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from acc_fusion.cli.common import add_scenario_arguments, scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.plots import plt
+from acc_fusion.metrics.realism import MAX_HEADWAY, time_headways
+from acc_fusion.metrics.realism_plot import headway_panel
+from acc_fusion.metrics.realism_references import reference_of
 from acc_fusion.truth.sumo.config import SumoConfig
-from acc_fusion.truth.sumo.launch import load_api, sumo_command
+from acc_fusion.truth.sumo.trajectories import sumo_trajectories
 
-#: King et al. (2022): median headway [s] and share of headways under 2 s (headways <= 5 s).
-REFERENCE = {"median_s": 1.74, "share_below_2s": 0.583}
-#: Car following: headways up to this [s], followers faster than MIN_SPEED [m/s].
-MAX_HEADWAY, MIN_SPEED = 5.0, 5.0
+#: King et al. (2022), as the realism check holds them: the median headway [s] and the share
+#: of headways under 2 s (headways <= 5 s).
+REFERENCE = {
+    "median_s": reference_of("headway_median").value,
+    "share_below_2s": reference_of("headway_below_2s").value,
+}
 
 
 def headways(config: SumoConfig, end: float, warmup: float, progress: bool = True) -> np.ndarray:
-    """Time headways [s] of car following sampled every second from ``warmup`` to ``end``."""
-    sumo = load_api(False)
-    sumo.start(sumo_command(config))
-    out: list[float] = []
-    try:
-        veh, dt = sumo.vehicle, sumo.simulation.getDeltaT()
-        steps = int(round(end / dt))
-        every = max(int(round(1.0 / dt)), 1)
-        for k in tqdm(
-            range(1, steps + 1), disable=None if progress else True, desc="SUMO", leave=False
-        ):
-            sumo.simulationStep()
-            if k % every or k * dt < warmup:
-                continue
-            for vid in veh.getIDList():
-                v = veh.getSpeed(vid)
-                lead = veh.getLeader(vid, 250.0)
-                if v <= MIN_SPEED or not lead or not lead[0]:
-                    continue
-                gap = lead[1] + veh.getMinGap(vid)  # getLeader leaves the minGap out
-                out.append((gap + veh.getLength(lead[0])) / v)
-    finally:
-        sumo.close()
-    h = np.asarray(out)
-    return h[h <= MAX_HEADWAY]
+    """Time headways [s] of car following sampled every second from ``warmup`` to ``end``
+    (:func:`~acc_fusion.metrics.realism.time_headways` of the samples at whole seconds)."""
+    traj = sumo_trajectories(config, end, warmup, progress=progress)
+    whole = np.abs(traj.time - np.round(traj.time)) < 0.5 * traj.dt
+    return time_headways(traj.subset(whole))
 
 
 def figure(h: np.ndarray, title: str):
@@ -72,16 +58,7 @@ def figure(h: np.ndarray, title: str):
     ax1.axvline(np.median(h), color="tab:blue", ls=":", label="simulated median")
     ax1.set(xlabel="time headway [s]", ylabel="density")
     ax1.legend()
-    x = np.sort(h)
-    ax2.plot(x, np.arange(1, x.size + 1) / x.size, color="tab:blue", label="simulated")
-    ax2.plot(
-        [REFERENCE["median_s"], 2.0],
-        [0.5, REFERENCE["share_below_2s"]],
-        "ko",
-        label="King et al. 2022 (median, share < 2 s)",
-    )
-    ax2.set(xlabel="time headway [s]", ylabel="cumulative share", xlim=(0, MAX_HEADWAY))
-    ax2.legend(loc="lower right")
+    headway_panel(ax2, h)
     fig.suptitle(title)
     fig.tight_layout()
     return fig
