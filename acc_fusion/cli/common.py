@@ -5,12 +5,19 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+from pathlib import Path
 
 import yaml
 
 from acc_fusion.core.config import from_mapping, load_mapping, load_yaml
 from acc_fusion.core.errors import AccFusionError, ConfigError
-from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_json_atomic
+from acc_fusion.core.outputs import (
+    output_dir,
+    output_file,
+    save_figure_atomic,
+    write_csv_atomic,
+    write_json_atomic,
+)
 from acc_fusion.core.plots import rates_figure
 from acc_fusion.core.schema import field_at, set_path
 from acc_fusion.core.validation import check_choice
@@ -44,6 +51,24 @@ def positive_float(text: str) -> float:
     return value
 
 
+def output_folder(text: str) -> Path:
+    """argparse type: an output folder, created and probed for writing as the arguments are
+    parsed (:func:`~acc_fusion.core.outputs.output_dir`), before any work."""
+    try:
+        return output_dir(text)
+    except AccFusionError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def output_path(text: str) -> Path:
+    """argparse type: an output file, its folder created and probed for writing as the
+    arguments are parsed (:func:`~acc_fusion.core.outputs.output_file`), before any work."""
+    try:
+        return output_file(text)
+    except AccFusionError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def study_parser(doc: str, runs: int, plot_help: str | None = None) -> argparse.ArgumentParser:
     """Parser of a study script: ``--runs``, ``--seed`` and, with ``plot_help``, ``--plot``."""
     parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
@@ -52,7 +77,7 @@ def study_parser(doc: str, runs: int, plot_help: str | None = None) -> argparse.
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of truth and noise (default 0)")
     if plot_help:
-        parser.add_argument("--plot", metavar="PATH", help=plot_help)
+        parser.add_argument("--plot", metavar="PATH", type=output_path, help=plot_help)
     return parser
 
 

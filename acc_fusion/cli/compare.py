@@ -8,11 +8,12 @@ import argparse
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
+    output_folder,
     sim_config,
     with_driver,
     write_summary,
 )
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import rates_figure
 from acc_fusion.studies.compare import COMPARE_CLUTTER, compare
 
@@ -42,7 +43,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="one closed loop with warnings on per method (radar, infrared, centralized, "
         "federated driving the alert), to compare the crashes each avoids",
     )
-    p.add_argument("--out", metavar="DIR", help="also write compare.csv/.png/.json here")
+    p.add_argument(
+        "--out", metavar="DIR", type=output_folder, help="also write compare.csv/.png/.json here"
+    )
     return p
 
 
@@ -51,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
     if args.distraction is not None:
         cfg = with_driver(cfg, args.distraction, sees_threats=True)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     comparison = compare(cfg, progress=True, drives=cfg.methods if args.all_drives else ())
     table, classes = comparison.table(), comparison.classes()
     print(table.format() + "\n\n" + classes.format())

@@ -13,7 +13,7 @@ import argparse
 import json
 import sys
 
-from acc_fusion.cli.common import add_config_arguments, config_data, sim_config
+from acc_fusion.cli.common import add_config_arguments, config_data, output_path, sim_config
 from acc_fusion.core.outputs import write_text_atomic
 from acc_fusion.core.schema import describe, json_schema
 from acc_fusion.sim.closed_loop import SimConfig
@@ -33,7 +33,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     add_config_arguments(show)
     show.add_argument("--json", action="store_true", help="print the rows as JSON")
     schema = sub.add_parser("schema", help="the JSON Schema of config files")
-    schema.add_argument("--out", metavar="FILE", help="write it to FILE (default: standard output)")
+    schema.add_argument(
+        "--out",
+        metavar="FILE",
+        type=output_path,
+        help="write it to FILE (default: standard output)",
+    )
     return p
 
 

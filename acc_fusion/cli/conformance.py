@@ -10,10 +10,11 @@ import numpy as np
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
+    output_folder,
     positive_int,
     sim_config,
 )
-from acc_fusion.core.outputs import output_dir, write_csv_atomic
+from acc_fusion.core.outputs import write_csv_atomic
 from acc_fusion.core.table import Table
 from acc_fusion.studies.compare import conformance
 
@@ -32,14 +33,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--trials", type=positive_int, default=7, help="trials per manoeuvre (default 7)"
     )
     add_sim_arguments(p, None)
-    p.add_argument("--out", metavar="DIR", help="also write conformance.csv here")
+    p.add_argument(
+        "--out", metavar="DIR", type=output_folder, help="also write conformance.csv here"
+    )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     results = conformance(args.trials, cfg.seed, cfg, progress=True)
     rows = []
     for res in results:

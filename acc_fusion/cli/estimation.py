@@ -7,11 +7,12 @@ from __future__ import annotations
 import argparse
 
 from acc_fusion.cli.common import (
+    output_folder,
     positive_float,
     positive_int,
     seed,
 )
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import estimation_bars
 from acc_fusion.studies.estimation import compare_methods
 
@@ -37,13 +38,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default="batched",
         help="filter engine (default batched)",
     )
-    p.add_argument("--out", metavar="DIR", help="also write estimation.csv and estimation.png here")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        type=output_folder,
+        help="also write estimation.csv and estimation.png here",
+    )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
 
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     table = compare_methods(
         n_runs=args.runs, duration=args.duration, seed=args.seed, engine=args.engine
     )

@@ -7,10 +7,10 @@ from __future__ import annotations
 import argparse
 import math
 
-from acc_fusion.cli.common import positive_float, positive_int, seed
+from acc_fusion.cli.common import output_folder, positive_float, positive_int, seed
 from acc_fusion.core.config import from_mapping, load_mapping
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir, write_csv_atomic, write_json_atomic
+from acc_fusion.core.outputs import write_csv_atomic, write_json_atomic
 from acc_fusion.envs.evaluation import comparison_table, evaluate_many
 from acc_fusion.envs.loader import load_policy
 from acc_fusion.envs.options import HighwayOptions, SumoOptions
@@ -97,7 +97,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="steps before an episode is truncated (default 1200)",
     )
     p.add_argument("--config", metavar="FILE", help="TOML or YAML file of SimConfig fields")
-    p.add_argument("--out", metavar="DIR", help="also write evaluate.csv and evaluate.json here")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        type=output_folder,
+        help="also write evaluate.csv and evaluate.json here",
+    )
     return p
 
 
@@ -145,9 +150,7 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.policy and not args.baselines:
         raise ConfigError("give a policy to evaluate with --policy MODULE:CALLABLE, or --baselines")
-    out = None
-    if args.out:
-        out = output_dir(args.out)
+    out = args.out
     policies = {spec: load_policy(spec) for spec in args.policy}
     if args.baselines:
         policies.update({k: v for k, v in BASELINES.items() if k not in policies})

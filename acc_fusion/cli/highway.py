@@ -9,6 +9,8 @@ import argparse
 
 from acc_fusion.cli.common import (
     add_config_arguments,
+    output_folder,
+    output_path,
     positive_float,
     positive_int,
     report_world,
@@ -18,7 +20,6 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.cli.world import parse_conditions
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir
 from acc_fusion.studies.highway import check_replay_path, highway_study
 from acc_fusion.studies.highway_world import highway_world_study
 from acc_fusion.truth.highway.config import INSTALL, PAIRS, SUPPORTED, HighwayConfig
@@ -61,6 +62,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--render",
         metavar="PATH",
+        type=output_path,
         help="write a replay of the FCW-on run (.gif, or .mp4 with imageio-ffmpeg) with the "
         "fused gap, safety distance and warning level drawn on highway-env's frames",
     )
@@ -79,7 +81,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="with --world: weather and light, day, night, fog=METRES, rain=MM_PER_H joined by "
         "'+', one run of the same episodes each (default: day)",
     )
-    p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
+    p.add_argument(
+        "--out", metavar="DIR", type=output_folder, help="also write CSV, PNG and JSON here"
+    )
     return p
 
 
@@ -92,7 +96,7 @@ def run_world(args: argparse.Namespace, cfg: HighwayConfig) -> int:
     if sim.drive is not None:
         raise ConfigError("--world runs open loop, nobody driving on the warnings; remove drive")
     conditions = [parse_conditions(c) for c in args.conditions or ["day"]]
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     study = highway_world_study(cfg, sim, conditions, progress=True)
     stem = f"highway_world_{cfg.env}_seed{cfg.seed}"
     report_world(study, out, stem, env=cfg.env, episodes=cfg.episodes, seed=cfg.seed,
@@ -116,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
     if args.world:
         return run_world(args, cfg)
     render = check_replay_path(args.render) if args.render else None
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     sim = sim_config(args, runs=1)
     study = highway_study(cfg, sim, progress=True, render=render)
     table = study.table()

@@ -82,9 +82,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``acc-fusion`` console script."""
+    """Entry point of the ``acc-fusion`` console script: the exit code (0 done, 2 a user's
+    mistake, reported in one line on standard error)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a usage error, already printed (2)
+        return int(exc.code or 0)
     try:
         return int(args.func(args))
     except AccFusionError as exc:

@@ -8,8 +8,14 @@ from __future__ import annotations
 import argparse
 import re
 
-from acc_fusion.cli.common import add_config_arguments, positive_int, sim_config, write_summary
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.cli.common import (
+    add_config_arguments,
+    output_folder,
+    positive_int,
+    sim_config,
+    write_summary,
+)
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.studies.replay import replay_study
 from acc_fusion.truth.replay.source import FORMATS, ReplayConfig
 
@@ -52,7 +58,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--slots", type=positive_int, default=2048, help="pairs replayed at once (default 2048)"
     )
     add_config_arguments(p)
-    p.add_argument("--out", metavar="DIR", help="also write CSV, JSON and the headway PNG here")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        type=output_folder,
+        help="also write CSV, JSON and the headway PNG here",
+    )
     return p
 
 
@@ -66,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         recompute_leaders=args.recompute_leaders,
         slots=args.slots,
     )
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     sim = sim_config(args, runs=1)
     study = replay_study(config, sim, progress=True)
     tables = {

@@ -10,10 +10,11 @@ import numpy as np
 
 from acc_fusion.cli.common import (
     add_sim_arguments,
+    output_folder,
     sim_config,
     write_summary,
 )
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import run_figure
 from acc_fusion.sim.closed_loop import simulate
 from acc_fusion.sim.hooks import Trace
@@ -32,14 +33,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--scenario", required=True, help="scenario name (see the error for the list)")
     add_sim_arguments(p, "runs of the scenario (default 1)")
     p.add_argument("--method", help="method whose alerts drive the closed loop (default federated)")
-    p.add_argument("--out", metavar="DIR", default="out", help="output folder (default out)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        type=output_folder,
+        default="out",
+        help="output folder (default out)",
+    )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args, runs=1, drive="federated", methods=("radar", "infrared", "federated"))
-    out = output_dir(args.out)
+    out = args.out
     trace = Trace(cfg.warning)
     result = simulate(cfg, progress=True, on_step=trace)
     for method, summary in result.summaries.items():

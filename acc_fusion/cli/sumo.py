@@ -10,6 +10,7 @@ from dataclasses import replace
 from acc_fusion.cli.common import (
     add_sim_arguments,
     add_traffic_arguments,
+    output_folder,
     positive_float,
     report_world,
     sim_config,
@@ -85,7 +86,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "'+', one SUMO run each (default: day)",
     )
     add_sim_arguments(p, None)
-    p.add_argument("--out", metavar="DIR", help="also write CSV, PNG and JSON here")
+    p.add_argument(
+        "--out", metavar="DIR", type=output_folder, help="also write CSV, PNG and JSON here"
+    )
     return p
 
 

@@ -7,7 +7,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acc_fusion.cli.common import positive_int
+from acc_fusion.cli.common import output_folder, positive_int
+from acc_fusion.core.outputs import output_dir
 from acc_fusion.core.table import Table
 from acc_fusion.sweep.aggregate import aggregate, formatted
 from acc_fusion.sweep.config import load_sweep
@@ -42,7 +43,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default=2,
         help="worker processes (local) or CPUs of the local Ray (default 2)",
     )
-    p.add_argument("--out", metavar="DIR", help="output folder (default out/sweep_<name>)")
+    p.add_argument(
+        "--out", metavar="DIR", type=output_folder, help="output folder (default out/sweep_<name>)"
+    )
     return p
 
 
@@ -50,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     """``acc-fusion sweep``: run (or resume) the sweep and print the per-method table."""
 
     cfg = load_sweep(args.config)
-    out = Path(args.out or Path("out") / f"sweep_{cfg.name}")
+    out = args.out or output_dir(Path("out") / f"sweep_{cfg.name}")
     result = run_sweep(cfg, out, executor=args.executor, workers=args.workers, address=args.address)
     methods = aggregate(result.rows, ["method"])
     rows = formatted(methods)

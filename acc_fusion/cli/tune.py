@@ -9,6 +9,7 @@ from acc_fusion.cli.common import (
     add_config_arguments,
     add_traffic_arguments,
     config_data,
+    output_folder,
     positive_float,
     positive_int,
     traffic_config,
@@ -16,7 +17,7 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.core.config import load_yaml
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import tradeoff_figure
 from acc_fusion.studies.tune import point_configs, record_sumo, tune, tune_table
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
@@ -52,7 +53,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--trials", type=positive_int, default=7, help="trials per test manoeuvre (default 7)"
     )
     add_config_arguments(p)
-    p.add_argument("--out", metavar="DIR", help="also write tune.csv and tune.png here")
+    p.add_argument(
+        "--out", metavar="DIR", type=output_folder, help="also write tune.csv and tune.png here"
+    )
     return p
 
 
@@ -73,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     axes = _axes(args.grid)
     base, _ = config_data(args)
     configs = point_configs(base, axes)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
     seed = int(base.get("seed", 0))
     traffic = traffic_sim_config(args)

@@ -7,9 +7,15 @@ from __future__ import annotations
 import argparse
 import math
 
-from acc_fusion.cli.common import add_sim_arguments, sim_config, write_summary
+from acc_fusion.cli.common import (
+    add_sim_arguments,
+    output_folder,
+    output_path,
+    sim_config,
+    write_summary,
+)
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.studies.world import world_study
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.scenes import SCENES
@@ -70,11 +76,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--plot",
         metavar="PNG",
+        type=output_path,
         help="write the figure of the alerts by cause per 100 km, with 95%% intervals, here",
     )
     p.add_argument(
         "--out",
         metavar="DIR",
+        type=output_folder,
         help="also write CSV (the tables, and the rates by cause with their intervals) and "
         "JSON here",
     )
@@ -86,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     conditions = [parse_conditions(c) for c in args.conditions]
     scenes = args.scene or sorted(SCENES)
     config = sim_config(args, runs=50)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     study = world_study(config, scenes, conditions, progress=True)
     tables = {"world_scenes": study.scenes(), "world_causes": study.causes()}
     print("\n\n".join(t.format() for t in tables.values()))

@@ -1,4 +1,8 @@
-"""Writing results: output folders checked up front, every file written atomically.
+"""Writing results: output folders and files checked up front, every file written atomically.
+
+The commands check every path they will write (:func:`output_dir`, :func:`output_file`) when
+their arguments are parsed, so an output that cannot be written is a one-line error before
+any work, and a run never ends with only some of its files written for want of a folder.
 
 A file is written to a temporary name in the same folder, flushed to disk (fsync) and
 renamed into place, so a run that is interrupted (even by ``kill -9`` or a power loss) leaves
@@ -11,6 +15,7 @@ import csv
 import io
 import json
 import os
+import stat
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -18,15 +23,53 @@ from pathlib import Path
 from acc_fusion.core.errors import AccFusionError
 
 
+def path_kind(path: Path) -> str:
+    """What ``path`` is, in words: ``"a folder"``, ``"a FIFO"``, ``"a file"``…, or
+    ``"missing"``; for a message about a path of the wrong kind."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return "missing"
+    kinds = (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISREG, "a file"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISSOCK, "a socket"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+    )
+    return next((word for test, word in kinds if test(mode)), "a special file")
+
+
 def output_dir(path: str | Path) -> Path:
-    """Create ``path`` if needed and check that it is a writable folder (else a clear error)."""
+    """Create ``path`` (and its parents) if needed and check, by writing a probe file into it,
+    that files can be written there; else one :class:`AccFusionError` naming the folder."""
     p = Path(path)
+    kind = path_kind(p)
+    if kind not in ("missing", "a folder"):
+        raise AccFusionError(f"output folder {str(p)!r} is {kind}, not a folder")
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise AccFusionError(f"cannot create output folder {str(p)!r}: {exc.strerror}") from None
-    if not p.is_dir() or not os.access(p, os.W_OK | os.X_OK):
-        raise AccFusionError(f"output folder {str(p)!r} is not a writable folder")
+    try:
+        with tempfile.TemporaryFile(dir=p):
+            pass
+    except OSError as exc:
+        raise AccFusionError(
+            f"cannot write into output folder {str(p)!r}: {exc.strerror}"
+        ) from None
+    return p
+
+
+def output_file(path: str | Path) -> Path:
+    """Check, before any work, that a file can be written at ``path``: its folder is created
+    and probed (:func:`output_dir`) and ``path`` is not a folder, FIFO or device."""
+    p = Path(path)
+    kind = path_kind(p)
+    if kind not in ("missing", "a file"):
+        raise AccFusionError(f"output file {str(p)!r} is {kind}, not a file")
+    output_dir(p.parent)
     return p
 
 
