@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
-from acc_fusion.cli.common import add_scenario_arguments, scenario_config
+from acc_fusion.cli.arguments import add_scenario_arguments
+from acc_fusion.cli.common import scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.launch import load_api, sumo_command

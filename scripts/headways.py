@@ -23,7 +23,8 @@ import sys
 import numpy as np
 from tqdm.auto import tqdm
 
-from acc_fusion.cli.common import add_scenario_arguments, output_path, scenario_config
+from acc_fusion.cli.arguments import add_scenario_arguments, output_path
+from acc_fusion.cli.common import scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.plots import plt

@@ -15,7 +15,7 @@ import argparse
 
 import numpy as np
 
-from acc_fusion.cli.common import output_path
+from acc_fusion.cli.arguments import output_path
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.filters.ego import YANG2009_ACCEL_OFFSET, Yang2009Run, simulate_yang2009
 

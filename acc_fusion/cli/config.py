@@ -13,33 +13,10 @@ import argparse
 import json
 import sys
 
-from acc_fusion.cli.common import add_config_arguments, config_data, output_path, sim_config
+from acc_fusion.cli.common import config_data, sim_config
 from acc_fusion.core.outputs import write_text_atomic
 from acc_fusion.core.schema import describe, json_schema
 from acc_fusion.sim.closed_loop import SimConfig
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """The ``config`` command and its ``show`` and ``schema`` subcommands."""
-    p = subparsers.add_parser(
-        "config",
-        help="the resolved configuration with units and origins, or its JSON Schema",
-        description=__doc__.split("\n\n")[0],
-    )
-    sub = p.add_subparsers(dest="config_command", metavar="SUBCOMMAND", required=True)
-    show = sub.add_parser(
-        "show", help="every config field: value, unit, and where the value comes from"
-    )
-    add_config_arguments(show)
-    show.add_argument("--json", action="store_true", help="print the rows as JSON")
-    schema = sub.add_parser("schema", help="the JSON Schema of config files")
-    schema.add_argument(
-        "--out",
-        metavar="FILE",
-        type=output_path,
-        help="write it to FILE (default: standard output)",
-    )
-    return p
 
 
 def run(args: argparse.Namespace) -> int:

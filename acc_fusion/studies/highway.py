@@ -11,7 +11,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
-from acc_fusion.core.outputs import output_file, temporary_beside, write_bytes_atomic
+from acc_fusion.core.outputs import check_output_file, temporary_beside, write_bytes_atomic
 from acc_fusion.core.table import Table
 from acc_fusion.core.validation import check_choice
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
@@ -56,7 +56,7 @@ def check_replay_path(path: str | os.PathLike) -> Path:
                 "writing an .mp4 replay needs imageio and ffmpeg: pip install imageio "
                 "imageio-ffmpeg (or write a .gif)"
             ) from None
-    return output_file(p)
+    return check_output_file(p)
 
 
 class Replay:

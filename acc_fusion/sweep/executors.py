@@ -33,10 +33,10 @@ import numba
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.validation import check_choice
+from acc_fusion.sweep import EXECUTORS
 from acc_fusion.sweep.chunks import run_chunk
 from acc_fusion.sweep.points import Chunk
 
-EXECUTORS = ("local", "ray")
 #: Seconds allowed for a TCP connection to a Ray cluster's address.
 RAY_CONNECT_TIMEOUT = 5.0
 #: Seconds allowed for ``ray.init`` to connect to a cluster (in a probe process).

@@ -43,15 +43,13 @@ from tqdm.auto import tqdm
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_choice
 from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.replay import FORMATS
 from acc_fusion.truth.replay.crosscheck import CrossCheck
 from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
 from acc_fusion.truth.replay.highd import highd_recordings
 from acc_fusion.truth.replay.ngsim import ngsim_recordings
 from acc_fusion.truth.replay.pairs import Pairs, build_pairs
 from acc_fusion.truth.replay.recording import MAX_ROWS, Recording
-
-#: The formats a recording can have.
-FORMATS = ("highd", "ngsim", "csv")
 
 
 @dataclass(frozen=True)
