@@ -4,6 +4,7 @@ work thrown away, and checks that it is now one line ``acc-fusion: error: …`` 
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -98,3 +99,97 @@ def test_the_command_line_answers_before_loading_the_pipeline(args):
     module compiles numba kernels.)"""
     code, heavy = loaded_by(*args)
     assert code == (0 if "--help" in args else 2) and heavy == []
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--set", "radar_faults=[{kind: bias}]"], ("radar_faults[0] needs the key 'start'",)),
+        (
+            ["--set", "world.sensors.infrared_faults=[{start: 1}]"],
+            ("world.sensors.infrared_faults[0] needs the key 'kind'",),
+        ),
+        (["--config", "{dir}/faults.yaml"], ("infrared_faults[0] needs the key 'start'",)),
+        (["--set", "runs=[1, 2"], ("--set runs is not valid YAML at line 1, column 6",)),
+        (
+            ["--config", "{dir}/syntax.yaml"],
+            ("syntax.yaml' is not valid YAML at line 2, column 2",),
+        ),
+        (
+            ["--config", "{dir}/syntax.toml"],
+            ("syntax.toml' is not valid TOML at line 2, column 1",),
+        ),
+        (["--config", "{dir}/deep.yaml"], ("nests deeper than 32 levels",)),
+        (["--config", "{dir}/deep.toml"], ("nests deeper than 32 levels",)),
+        (["--config", "{dir}/laughs.yaml"], ("holds more than 100000 values",)),
+        (["--config", "{dir}/big.yaml"], ("is larger than 1 MiB",)),
+        (["--config", "{dir}"], ("is a folder, not a file",)),
+    ],
+)
+def test_every_spec_is_validated_with_its_key_path(tmp_path, capsys, args, words):
+    """A fault without one of its fields was a ``TypeError`` traceback, a syntax error 4-8
+    lines, a deep or huge file a ``RecursionError`` or a hang, a folder "does not exist"."""
+    (tmp_path / "faults.yaml").write_text("infrared_faults:\n  - kind: dropout\n")
+    (tmp_path / "syntax.yaml").write_text("a: [1, 2\nb: 3\n")
+    (tmp_path / "syntax.toml").write_text("a = [1, 2\nb = 3\n")
+    (tmp_path / "deep.yaml").write_text("a: " + "[" * 3000 + "]" * 3000 + "\n")
+    (tmp_path / "deep.toml").write_text("a = " + "[" * 3000 + "]" * 3000 + "\n")
+    laughs = ["a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
+    laughs += [
+        f"{b}: &{b} [{', '.join([f'*{a}'] * 10)}]" for a, b in zip("abcde", "bcdef", strict=True)
+    ]
+    (tmp_path / "laughs.yaml").write_text("\n".join(laughs) + "\n")
+    (tmp_path / "big.yaml").write_text("#" * (1 << 20) + "\n")
+    err = one_line_error(
+        capsys, "config", "show", *[a.replace("{dir}", str(tmp_path)) for a in args]
+    )
+    for w in words:
+        assert w in err
+
+
+def test_a_grid_and_a_sweep_axis_are_validated_like_a_config(tmp_path, capsys):
+    """``tune --grid`` with a YAML syntax error was a traceback; a sweep axis of faults without
+    a start a ``TypeError``."""
+    err = one_line_error(capsys, "tune", "--grid", "warning.z=[1, 2")
+    assert "--grid warning.z is not valid YAML at line 1, column 6" in err
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(
+        'name = "t"\nseeds = [0]\nruns = 2\nchunk_runs = 2\n[base]\nscenario = "ccrs"\n'
+        '[axes]\nradar_faults = [[{kind = "bias"}]]\n'
+    )
+    err = one_line_error(capsys, "sweep", str(spec), "--out", str(tmp_path / "out"))
+    assert "radar_faults[0] needs the key 'start'" in err
+
+
+@pytest.mark.parametrize("columns", ["[a, b]", "3", "frame"])
+def test_a_mapping_whose_columns_is_not_a_table_is_one_line(tmp_path, capsys, columns):
+    """Was a ``TypeError`` traceback."""
+    mapping = tmp_path / "mapping.yaml"
+    mapping.write_text(f"columns: {columns}\n")
+    data = tmp_path / "t.csv"
+    data.write_text("id,frame,x\n1,0,0\n")
+    args = ["replay", "--format", "csv", "--path", str(data), "--mapping", str(mapping)]
+    assert "columns must be a table/mapping" in one_line_error(capsys, *args)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["replay", "--format", "csv", "--path", "{input}"],
+        ["replay", "--format", "ngsim", "--path", "{input}"],
+        ["replay", "--format", "highd", "--path", "{input}"],
+        ["sumo", "--sumocfg", "{input}"],
+        ["config", "show", "--config", "{input}"],
+    ],
+)
+@pytest.mark.parametrize("kind", ["a folder", "a FIFO"])
+def test_an_input_of_the_wrong_kind_says_what_it_is(tmp_path, capsys, args, kind):
+    """A folder or a FIFO given as an input file was reported as "does not exist"."""
+    path = tmp_path / "input.yaml"
+    if kind == "a folder":
+        path.mkdir()
+    else:
+        os.mkfifo(path)
+    err = one_line_error(capsys, *[a.format(input=path) for a in args])
+    if not (kind == "a folder" and "highd" in args):  # a highD recording is a folder
+        assert f"is {kind}, not a" in err

@@ -7,8 +7,6 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
-import yaml
-
 from acc_fusion.core.config import from_mapping, load_mapping, load_yaml
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.outputs import (
@@ -85,11 +83,7 @@ def config_data(args: argparse.Namespace) -> tuple[dict, str]:
         if not sep or not key:
             raise ConfigError(f"--set takes KEY=VALUE, got {item!r}")
         field_at(SimConfig, key)  # raises, naming the allowed keys
-        try:
-            value = load_yaml(text)
-        except yaml.YAMLError:
-            raise ConfigError(f"--set {key}: {text!r} is not a YAML value") from None
-        set_path(data, key, value)
+        set_path(data, key, load_yaml(text, f"--set {key}"))
         sources.append("--set")
     return data, " / ".join(dict.fromkeys(sources))
 

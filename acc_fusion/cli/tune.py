@@ -24,7 +24,7 @@ def _axes(items: list[str]) -> dict[str, list]:
         key, sep, text = item.partition("=")
         if not sep or not key:
             raise ConfigError(f"--grid takes KEY=[V1, V2, ...], got {item!r}")
-        values = load_yaml(text)
+        values = load_yaml(text, f"--grid {key}")
         if not isinstance(values, list) or not values:
             raise ConfigError(f"--grid {key}: give a non-empty list of values, got {text!r}")
         axes[key] = values

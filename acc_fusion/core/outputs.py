@@ -17,30 +17,12 @@ import csv
 import io
 import json
 import os
-import stat
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 from acc_fusion.core.errors import AccFusionError
-
-
-def path_kind(path: Path) -> str:
-    """What ``path`` is, in words: ``"a folder"``, ``"a FIFO"``, ``"a file"``…, or
-    ``"missing"``; for a message about a path of the wrong kind."""
-    try:
-        mode = path.stat().st_mode
-    except OSError:
-        return "missing"
-    kinds = (
-        (stat.S_ISDIR, "a folder"),
-        (stat.S_ISREG, "a file"),
-        (stat.S_ISFIFO, "a FIFO"),
-        (stat.S_ISSOCK, "a socket"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-    )
-    return next((word for test, word in kinds if test(mode)), "a special file")
+from acc_fusion.core.paths import path_kind
 
 
 def check_output_dir(path: str | Path) -> Path:

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.paths import path_kind
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.recording import Recording
 from acc_fusion.truth.replay.rows import ReplayError, Rows
@@ -174,7 +175,9 @@ def highd_recordings(path: str | Path, numbers: list[int] | None = None) -> list
             raise ReplayError(f"{str(p)!r} is not a highD NN_tracks.csv file")
         p, numbers = p.parent, numbers or [int(stem)]
     if not p.is_dir():
-        raise ReplayError(f"highD folder {str(p)!r} does not exist")
+        kind = path_kind(p)
+        what = "does not exist" if kind == "missing" else f"is {kind}, not a folder"
+        raise ReplayError(f"highD folder {str(p)!r} {what}")
     if not numbers:
         found = sorted(p.glob("[0-9][0-9]_tracks.csv"))
         if not found:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.paths import existing_file
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.recording import Recording
 from acc_fusion.truth.replay.rows import ReplayError, Rows
@@ -80,8 +81,7 @@ class NgsimRecording(Recording):
 def ngsim_recordings(path: str | Path, locations: list[str] | None = None) -> list[NgsimRecording]:
     """The recordings of the NGSIM CSV ``path``: one per name of ``locations`` (its
     ``Location`` column), or the whole file."""
-    if not Path(path).is_file():
-        raise ReplayError(f"NGSIM file {str(path)!r} does not exist")
+    existing_file(path, "NGSIM file", ReplayError)
     if not locations:
         return [NgsimRecording(path)]
     return [NgsimRecording(path, loc) for loc in locations]
