@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import warnings
 
 import pytest
 
@@ -193,3 +194,31 @@ def test_an_input_of_the_wrong_kind_says_what_it_is(tmp_path, capsys, args, kind
     err = one_line_error(capsys, *[a.format(input=path) for a in args])
     if not (kind == "a folder" and "highd" in args):  # a highD recording is a folder
         assert f"is {kind}, not a" in err
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["estimation", "--duration", "0.01"], "duration must be in [1.05, 3600]"),
+        (["estimation", "--duration", "1e9"], "duration must be in [1.05, 3600]"),
+        (["estimation", "--runs", "20000000"], "runs must be a whole number in [1, 1000000]"),
+        (["estimation", "--duration", "nan"], "--duration: must be a finite number, got 'nan'"),
+        (["world", "--conditions", "fog=abc"], "fog takes a number, got 'abc'"),
+        (["world", "--conditions", "fog=1e-300"], "fog_visibility must be in [10, inf]"),
+        (["world", "--conditions", "rain=1e300"], "rain_rate must be in [0, 500]"),
+    ],
+)
+def test_numbers_are_bounded_by_physics(capsys, args, words):
+    """A tiny estimation duration divided by zero and a huge one hung; a fog of 1e-300 m
+    overflowed, and ``fog=abc`` was echoed as "nan"."""
+    assert words in one_line_error(capsys, *args)
+
+
+def test_the_extreme_weather_accepted_raises_no_numpy_warning(capsys):
+    """Fog of 1 mm or rain of 1e30 mm/h printed numpy's RuntimeWarning lines (they are now
+    refused); the densest fog and heaviest rain accepted compute without one."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        args = ["world", "--runs", "1", "--scene", "lead_brakes", "--scene", "gantry_crest"]
+        assert main([*args, "--conditions", "night+fog=10+rain=500", "fog=1e308"]) == 0
+    assert capsys.readouterr().err.count("Warning") == 0

@@ -6,6 +6,7 @@ wait for the pipeline's imports."""
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -73,11 +74,14 @@ def seed(text: str) -> int:
 
 def _parse(kind: type[int] | type[float], text: str) -> int | float:
     """``text`` as a ``kind``, else argparse's error saying what it must be."""
+    what = "a whole number" if kind is int else "a finite number"
     try:
-        return kind(text)
+        value = kind(text)
     except ValueError:
-        what = "a whole number" if kind is int else "a number"
         raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+    return value
 
 
 def add_config_arguments(p: argparse.ArgumentParser) -> None:

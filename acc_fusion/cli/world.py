@@ -5,7 +5,6 @@ by class and by cause per method."""
 from __future__ import annotations
 
 import argparse
-import math
 
 from acc_fusion.cli.common import (
     sim_config,
@@ -30,7 +29,9 @@ def parse_conditions(text: str) -> Conditions:
             try:
                 number = float(value)
             except ValueError:
-                number = math.nan
+                raise ConfigError(
+                    f"--conditions {text!r}: {key} takes a number, got {value!r}"
+                ) from None
             fields["fog_visibility" if key == "fog" else "rain_rate"] = number
         else:
             raise ConfigError(
