@@ -26,6 +26,7 @@ def run(args: argparse.Namespace) -> int:
         mapping=args.mapping,
         recompute_leaders=args.recompute_leaders,
         slots=args.slots,
+        bad_rows=args.bad_rows,
     )
     out = args.out
     sim = sim_config(args, runs=1)

@@ -9,7 +9,7 @@ from acc_fusion.cli.arguments import (
     output_folder,
     positive_int,
 )
-from acc_fusion.truth.replay import FORMATS
+from acc_fusion.truth.replay import BAD_ROWS, FORMATS
 
 
 def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
@@ -47,6 +47,13 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--slots", type=positive_int, default=2048, help="pairs replayed at once (default 2048)"
+    )
+    p.add_argument(
+        "--bad-rows",
+        choices=BAD_ROWS,
+        default="refuse",
+        help="a row outside the physical bounds (position, speed, acceleration, length, id): "
+        "refuse the recording, naming its row and column (default), or drop it and count it",
     )
     add_config_arguments(p)
     p.add_argument(

@@ -5,3 +5,5 @@ which replays them through the FCW pipeline (open loop only)."""
 #: The formats a recording can have (here, so that the command line's parser reads them
 #: without importing the readers).
 FORMATS = ("highd", "ngsim", "csv")
+#: What to do with a recorded row outside the physical bounds: refuse the recording, or drop it.
+BAD_ROWS = ("refuse", "drop")

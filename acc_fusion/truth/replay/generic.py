@@ -44,7 +44,8 @@ class CsvMapping:
         position: position along the driving direction (arc length along the lane).
         position_ref: where on the vehicle ``position`` is: front, centre or rear.
         lateral: lateral position across the road (optional with ``lane``).
-        lane: lane id (a whole number; optional with ``lateral``).
+        lane: lane id (a whole number; optional with ``lateral``; ``lane`` when neither is
+            given).
         lane_width: lane width [m] to find the lane from ``lateral`` (default 3.5).
         speed, accel: speed [m/s] and acceleration [m/s²] along the driving direction.
         length: vehicle length.
@@ -61,7 +62,7 @@ class CsvMapping:
     position: str = "s"
     position_ref: str = "front"
     lateral: str | None = None
-    lane: str | None = "lane"
+    lane: str | None = None
     lane_width: float = 3.5
     speed: str = "v"
     accel: str = "a"
@@ -76,7 +77,7 @@ class CsvMapping:
         if self.frame is None and self.time is None:
             object.__setattr__(self, "time", "t")
         if self.lane is None and self.lateral is None:
-            raise ConfigError("the CSV mapping needs a lane or a lateral column")
+            object.__setattr__(self, "lane", "lane")
         check_range("frame_rate", self.frame_rate, 0.0, 1e4, lo_open=True)
         check_range("lane_width", self.lane_width, 0.0, 100.0, lo_open=True)
         check_choice("position_ref", self.position_ref, tuple(POSITION_REFS))
@@ -110,6 +111,9 @@ class CsvRecording(Recording):
     def __init__(self, path: str | Path, mapping: CsvMapping) -> None:
         self.path = csvfile.existing(path, "trajectory file")
         self.mapping = mapping
+        self.sources = {"frame": mapping.time or mapping.frame, "vid": mapping.id,
+                        "s": mapping.position, "speed": mapping.speed, "accel": mapping.accel,
+                        "length": mapping.length}  # fmt: skip
         self.label = self.path.stem
         self.dt = 1.0 / mapping.frame_rate
         wanted = mapping.numbers()

@@ -58,6 +58,8 @@ class HighDRecording(Recording):
     """highD recording ``number`` in the folder ``folder``."""
 
     headway_basis = "gap"
+    sources = {"frame": "frame", "vid": "id", "s": "x", "speed": "xVelocity",
+               "accel": "xAcceleration", "length": "width"}  # fmt: skip
 
     def __init__(self, folder: str | Path, number: int) -> None:
         folder = Path(folder)

@@ -42,6 +42,8 @@ class NgsimRecording(Recording):
 
     headway_basis = "spacing"
     frame_columns = ("Frame_ID",)
+    sources = {"frame": "Frame_ID", "vid": "Vehicle_ID", "s": "Local_Y", "speed": "v_Vel",
+               "accel": "v_Acc", "length": "v_Length"}  # fmt: skip
 
     def __init__(self, path: str | Path, location: str | None = None) -> None:
         self.path = csvfile.existing(path, "NGSIM file")

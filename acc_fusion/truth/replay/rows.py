@@ -30,6 +30,20 @@ from acc_fusion.core.errors import InputError
 REFERENCE_COLUMNS = ("headway", "thw", "ttc")
 
 
+#: The physical bounds of a recorded row, in SI units: the field of :class:`Rows`, its words in a
+#: message, and its least and greatest value.  Positions within 1 000 km of the file's
+#: origin; speeds from a slow reverse to 360 km/h; accelerations within 3 g (beyond any road
+#: vehicle's brakes or engine); lengths from a bicycle to the longest road train; ids whole
+#: numbers >= 0 (the ids' NaN, where a reader keeps it, fails too).
+BOUNDS = {
+    "vid": ("vehicle id", 0.0, 2.0**53),
+    "s": ("position [m]", -1e6, 1e6),
+    "speed": ("speed [m/s]", -10.0, 100.0),
+    "accel": ("acceleration [m/s²]", -30.0, 30.0),
+    "length": ("length [m]", 0.5, 60.0),
+}
+
+
 class ReplayError(InputError):
     """A recording that cannot be replayed: a missing file or column, a malformed row."""
 
