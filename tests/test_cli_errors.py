@@ -5,13 +5,16 @@ work thrown away, and checks that it is now one line ``acc-fusion: error: …`` 
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import pytest
 
 from acc_fusion.cli.main import COMMANDS, main
+from acc_fusion.truth.sumo.nets import bundled_nets
 
 
 def one_line_error(capsys, *args: str) -> str:
@@ -222,3 +225,47 @@ def test_the_extreme_weather_accepted_raises_no_numpy_warning(capsys):
         args = ["world", "--runs", "1", "--scene", "lead_brakes", "--scene", "gantry_crest"]
         assert main([*args, "--conditions", "night+fog=10+rain=500", "fog=1e308"]) == 0
     assert capsys.readouterr().err.count("Warning") == 0
+
+
+@pytest.fixture
+def broken_ring(tmp_path):
+    """A copy of the bundled ring network whose .net.xml is replaced by ``text``."""
+    pytest.importorskip("libsumo")
+    ring = tmp_path / "ring"
+    shutil.copytree(bundled_nets()["ring"].parent, ring)
+
+    def broken(text: str) -> Path:
+        (ring / "ring.net.xml").write_text(text)
+        return ring / "ring.sumocfg"
+
+    return broken
+
+
+@pytest.mark.parametrize(
+    "net, words",
+    [
+        ('<net version="1.20">\n  <edge id="a"', "SUMO could not load"),
+        ('<net><edge id="x"><lane id="x_0" shape="0,0 a"/></edge></net>', "ended abruptly"),
+    ],
+)
+def test_a_worker_process_error_is_the_one_line_it_raised(broken_ring, capfd, net, words):
+    """A truncated network's SUMO error came with SUMO's own four lines, twice; a network on
+    which libsumo crashes gave a ``BrokenProcessPool`` traceback."""
+    cfg = broken_ring(net)
+    assert main(["sumo", "--sumocfg", str(cfg), "--end", "5"]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("acc-fusion: error: ") and words in err, err
+
+
+def test_a_sumo_error_in_a_sweep_has_no_second_traceback(broken_ring, tmp_path, capfd):
+    """Every SUMO error in a sweep was followed by an 11-line "Exception in thread"
+    traceback from the pool's manager thread."""
+    cfg = broken_ring('<net version="1.20">\n  <edge id="a"')
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(
+        f'name = "s"\nsource = "sumo"\nseeds = [0]\nruns = 2\n[sumo]\nsumocfg = "{cfg}"\n'
+        "end = 5.0\n"
+    )
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and "SUMO could not load" in err, err

@@ -18,14 +18,13 @@ FCW-off run with each method's warnings (:mod:`acc_fusion.metrics.counterfactual
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
@@ -265,8 +264,7 @@ def sumo_study(
     the warnings the drivers hear are the 2-D pipeline's."""
     drive = sim.drive or sim.methods[-1]
     distracted = sim.driver.distraction.rate > 0
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
+    with process_pool(f"SUMO on {sumo_config.sumocfg!r}", 2) as pool:
         headless = replace(sumo_config, gui=False)
         off_sim = replace(sim, drive=drive if distracted else None)
         off = pool.submit(_run, headless, off_sim, progress, ssm, False, world)

@@ -28,10 +28,12 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 
 import numba
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.pools import died, stop
 from acc_fusion.core.validation import check_choice
 from acc_fusion.sweep import EXECUTORS
 from acc_fusion.sweep.chunks import run_chunk
@@ -92,10 +94,15 @@ def local_executor(workers: int = 2) -> Executor:
             while futures:
                 done, _ = wait(futures, return_when=FIRST_COMPLETED)
                 for f in done:
-                    yield futures.pop(f), f.result()
+                    chunk = futures.pop(f)
+                    try:
+                        columns = f.result()
+                    except BrokenProcessPool:
+                        raise died(f"sweep chunk {chunk.id}") from None
+                    yield chunk, columns
         finally:
             for pool in pools:
-                pool.shutdown(wait=False, cancel_futures=True)
+                stop(pool)
 
     return run
 
