@@ -269,3 +269,31 @@ def test_a_sumo_error_in_a_sweep_has_no_second_traceback(broken_ring, tmp_path, 
     assert main(["sweep", str(spec), "--out", str(tmp_path / "out")]) == 2
     err = capfd.readouterr().err
     assert err.count("\n") == 1 and "SUMO could not load" in err, err
+
+
+def test_a_damaged_sweep_resumes_recomputing_only_the_damage(tmp_path, capsys):
+    """A truncated part was a pyarrow ``ArrowInvalid`` traceback, a truncated sweep.json
+    "holds a different sweep"; now one warning line names them, the damaged part is run
+    again and the rows are those of the undamaged sweep."""
+    pq = pytest.importorskip("pyarrow.parquet")
+    spec = tmp_path / "q.toml"
+    spec.write_text(
+        'name = "q"\nseeds = [0]\nruns = 4\nchunk_runs = 2\n[base]\nscenario = "ccrs"\n'
+        'methods = ["radar"]\n[axes]\n"warning.z" = [0.0, 1.0]\n'
+    )
+    out = tmp_path / "out"
+    args = ["sweep", str(spec), "--out", str(out), "--workers", "1"]
+    assert main(args) == 0
+    before = pq.read_table(out / "runs.parquet")
+    part = sorted((out / "parts").glob("*.parquet"))[0]
+    part.write_bytes(part.read_bytes()[:100])
+    meta = out / "sweep.json"
+    meta.write_text(meta.read_text()[:50])
+    capsys.readouterr()
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and captured.err.startswith("acc-fusion: warning: ")
+    assert "sweep.json (not valid JSON: rewritten)" in captured.err
+    assert f"parts/{part.name} (unreadable: recomputed)" in captured.err
+    assert "ran 1 chunks (2 runs" in captured.out and "3 were already done" in captured.out
+    assert pq.read_table(out / "runs.parquet").equals(before)

@@ -5,6 +5,7 @@ a report.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from acc_fusion.core.table import Table
@@ -19,6 +20,11 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_sweep(args.config)
     out = Path(args.out or Path("out") / f"sweep_{cfg.name}")
     result = run_sweep(cfg, out, executor=args.executor, workers=args.workers, address=args.address)
+    if result.damaged:
+        damaged = ", ".join(result.damaged)
+        print(
+            f"acc-fusion: warning: {out} held damaged files, recovered: {damaged}", file=sys.stderr
+        )
     methods = aggregate(result.rows, ["method"])
     rows = formatted(methods)
     table = Table(

@@ -100,9 +100,12 @@ def local_executor(workers: int = 2) -> Executor:
                     except BrokenProcessPool:
                         raise died(f"sweep chunk {chunk.id}") from None
                     yield chunk, columns
-        finally:
+        except BaseException:  # an error, or the consumer stopped early: stop at once
             for pool in pools:
                 stop(pool)
+            raise
+        for pool in pools:
+            pool.shutdown(wait=True)
 
     return run
 
