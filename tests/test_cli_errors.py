@@ -4,6 +4,7 @@ work thrown away, and checks that it is now one line ``acc-fusion: error: …`` 
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -297,3 +298,17 @@ def test_a_damaged_sweep_resumes_recomputing_only_the_damage(tmp_path, capsys):
     assert f"parts/{part.name} (unreadable: recomputed)" in captured.err
     assert "ran 1 chunks (2 runs" in captured.out and "3 were already done" in captured.out
     assert pq.read_table(out / "runs.parquet").equals(before)
+
+
+@pytest.mark.parametrize("args", [["config", "show", "--json"], ["config", "schema"]])
+def test_json_output_is_strict_json(capsys, args):
+    """``config show --json`` (and the schema) wrote ``Infinity``, which strict JSON readers
+    reject; infinities are now the strings "inf" and "-inf", NaN null."""
+    assert main(args) == 0
+
+    def refuse(constant):
+        raise ValueError(f"not strict JSON: {constant}")
+
+    text = capsys.readouterr().out
+    json.loads(text, parse_constant=refuse)
+    assert '"inf"' in text

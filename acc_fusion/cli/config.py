@@ -14,14 +14,14 @@ import json
 import sys
 
 from acc_fusion.cli.common import config_data, sim_config
-from acc_fusion.core.outputs import write_text_atomic
+from acc_fusion.core.outputs import json_text, write_text_atomic
 from acc_fusion.core.schema import describe, json_schema
 from acc_fusion.sim.closed_loop import SimConfig
 
 
 def run(args: argparse.Namespace) -> int:
     if args.config_command == "schema":
-        text = json.dumps(json_schema(SimConfig, title="acc_fusion config file"), indent=2)
+        text = json_text(json_schema(SimConfig, title="acc_fusion config file"))
         if args.out:
             write_text_atomic(args.out, text + "\n")
             print(f"wrote {args.out}")
@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     given, source = config_data(args)
     rows = describe(cfg, given, source)
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(json_text(rows))
         return 0
     print(format_rows(rows))
     return 0

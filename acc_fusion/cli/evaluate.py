@@ -5,7 +5,6 @@ baselines in the gymnasium environment.
 from __future__ import annotations
 
 import argparse
-import math
 
 from acc_fusion.core.config import from_mapping, load_mapping
 from acc_fusion.core.errors import ConfigError
@@ -85,18 +84,7 @@ def run(args: argparse.Namespace) -> int:
         write_csv_atomic(out / "evaluate.csv", table.columns, table.rows)
         write_json_atomic(
             out / "evaluate.json",
-            {"policies": [_clean(e.as_dict()) for e in evaluations]},
+            {"policies": [e.as_dict() for e in evaluations]},
         )
         print(f"wrote {out / 'evaluate.csv'} and {out / 'evaluate.json'}")
     return 0
-
-
-def _clean(x: object) -> object:
-    """NaN and ±inf become ``None`` (JSON has neither)."""
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x

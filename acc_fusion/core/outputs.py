@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import tempfile
 from collections.abc import Sequence
@@ -114,9 +115,27 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
     return write_bytes_atomic(path, text.encode())
 
 
+def json_text(data: object) -> str:
+    """``data`` as indented strict JSON, which has no NaN or infinity: ``inf`` and ``-inf``
+    become the strings ``"inf"`` and ``"-inf"``, NaN becomes ``null`` (Python's ``json``
+    would write ``Infinity`` and ``NaN``, which strict readers reject); numpy numbers as
+    numbers."""
+    return json.dumps(_strict(data), indent=2, default=float, allow_nan=False)
+
+
+def _strict(x: object) -> object:
+    if isinstance(x, dict):
+        return {k: _strict(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_strict(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):  # numpy floats are floats too
+        return None if math.isnan(x) else ("inf" if x > 0 else "-inf")
+    return x
+
+
 def write_json_atomic(path: str | Path, data: object) -> Path:
-    """Write ``data`` as indented JSON atomically."""
-    return write_text_atomic(path, json.dumps(data, indent=2, default=float) + "\n")
+    """Write ``data`` as indented strict JSON (:func:`json_text`) atomically."""
+    return write_text_atomic(path, json_text(data) + "\n")
 
 
 def write_csv_atomic(path: str | Path, columns: Sequence[str], rows: Sequence[dict]) -> Path:
