@@ -129,6 +129,7 @@ def test_the_command_line_answers_before_loading_the_pipeline(args):
         (["--config", "{dir}/laughs.yaml"], ("holds more than 100000 values",)),
         (["--config", "{dir}/big.yaml"], ("is larger than 1 MiB",)),
         (["--config", "{dir}"], ("is a folder, not a file",)),
+        (["--config", "{dir}/control.yaml"], ("not valid YAML: unacceptable character #x0008",)),
     ],
 )
 def test_every_spec_is_validated_with_its_key_path(tmp_path, capsys, args, words):
@@ -145,6 +146,7 @@ def test_every_spec_is_validated_with_its_key_path(tmp_path, capsys, args, words
     ]
     (tmp_path / "laughs.yaml").write_text("\n".join(laughs) + "\n")
     (tmp_path / "big.yaml").write_text("#" * (1 << 20) + "\n")
+    (tmp_path / "control.yaml").write_text("a: \x08\n")  # found by tests/test_fuzz.py
     err = one_line_error(
         capsys, "config", "show", *[a.replace("{dir}", str(tmp_path)) for a in args]
     )

@@ -71,8 +71,9 @@ def _parsed(text: str, fmt: str, where: str) -> Any:
         mark = exc.problem_mark or exc.context_mark
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         raise ConfigError(f"{where} is not valid YAML{at}: {exc.problem or exc.context}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{where} is not valid YAML: {exc}") from None
+    except yaml.YAMLError as exc:  # a character YAML does not allow: its first line says which
+        problem = " ".join(str(exc).splitlines()[0].split())
+        raise ConfigError(f"{where} is not valid YAML: {problem}") from None
     except tomllib.TOMLDecodeError as exc:
         problem, _, at = str(exc).partition(" (at ")
         at = f" at {at.rstrip(')')}" if at else ""

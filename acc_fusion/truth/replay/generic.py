@@ -24,7 +24,7 @@ from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.ngsim import FOOT
 from acc_fusion.truth.replay.recording import Recording
-from acc_fusion.truth.replay.rows import Rows
+from acc_fusion.truth.replay.rows import Rows, whole
 
 #: Units of a mapped file's lengths (speeds and accelerations follow): metres or feet.
 UNITS = {"m": 1.0, "ft": FOOT}
@@ -124,7 +124,7 @@ class CsvRecording(Recording):
         clock = batch["clock"]
         if self.mapping.time is not None:
             clock = clock * self.mapping.frame_rate
-        return np.rint(clock).astype(np.int64)
+        return whole(np.rint(clock))
 
     def _rows(self, b: dict[str, np.ndarray], frame: np.ndarray) -> Rows:
         m = self.mapping
@@ -132,21 +132,21 @@ class CsvRecording(Recording):
         length = unit * b["length"]
         lateral = unit * b["lateral"] if "lateral" in b else np.full(frame.size, np.nan)
         if "lane" in b:
-            lane = b["lane"].astype(np.int64)
+            lane = whole(b["lane"])
         else:
-            lane = np.floor(lateral / m.lane_width + 0.5).astype(np.int64)
+            lane = whole(np.floor(lateral / m.lane_width + 0.5))
         n = frame.size
         leader = None
         if "leader" in b:
-            leader = b["leader"].astype(np.int64)
+            leader = whole(b["leader"])
             leader = np.where(leader > 0, leader, -1)
         return Rows(
             frame=frame,
-            vid=b["id"].astype(np.int64),
+            vid=whole(b["id"]),
             s=unit * b["position"] + POSITION_REFS[m.position_ref] * length,
             lat=lateral,
             lane=lane,
-            group=b["group"].astype(np.int64) if "group" in b else np.zeros(n, np.int64),
+            group=whole(b["group"]) if "group" in b else np.zeros(n, np.int64),
             speed=unit * b["speed"],
             accel=unit * b["accel"],
             length=length,

@@ -21,7 +21,7 @@ import numpy as np
 from acc_fusion.core.paths import existing_file
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.recording import Recording
-from acc_fusion.truth.replay.rows import ReplayError, Rows
+from acc_fusion.truth.replay.rows import ReplayError, Rows, whole
 
 #: One foot [m].
 FOOT = 0.3048
@@ -55,18 +55,18 @@ class NgsimRecording(Recording):
             self.where = ("Location", location)
 
     def _frames(self, batch: dict[str, np.ndarray]) -> np.ndarray:
-        return batch["Frame_ID"].astype(np.int64)
+        return whole(batch["Frame_ID"])
 
     def _rows(self, b: dict[str, np.ndarray], frame: np.ndarray) -> Rows:
-        leader = b["Preceding"].astype(np.int64)
+        leader = whole(b["Preceding"])
         has = leader > 0
         thw = b["Time_Headway"]
         return Rows(
             frame=frame,
-            vid=b["Vehicle_ID"].astype(np.int64),
+            vid=whole(b["Vehicle_ID"]),
             s=FOOT * b["Local_Y"],
             lat=FOOT * b["Local_X"],
-            lane=b["Lane_ID"].astype(np.int64),
+            lane=whole(b["Lane_ID"]),
             group=np.zeros(frame.size, dtype=np.int64),
             speed=FOOT * b["v_Vel"],
             accel=FOOT * b["v_Acc"],

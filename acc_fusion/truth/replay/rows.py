@@ -44,6 +44,15 @@ BOUNDS = {
 }
 
 
+def whole(x: np.ndarray) -> np.ndarray:
+    """A file's numbers ``x`` as whole numbers (int64), rounded towards zero; NaN, infinities
+    and magnitudes of 2**53 or more (no whole number a float holds exactly) become -1 ("none"
+    for a lane or a leader; refused by :data:`BOUNDS` for an id, by the readers for a frame)
+    without numpy's warning for an invalid cast."""
+    x = np.asarray(x, dtype=float)
+    return np.where(np.abs(x) < 2.0**53, x, -1.0).astype(np.int64)
+
+
 class ReplayError(InputError):
     """A recording that cannot be replayed: a missing file or column, a malformed row."""
 
