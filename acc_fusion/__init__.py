@@ -7,14 +7,16 @@ package is laid out by pipeline stage: ``core`` < ``truth`` < ``sensors`` < ``fi
 ``cli``; a stage imports only the stages below it (checked by ``lint-imports``).
 """
 
+import importlib.abc
+import importlib.util
+import sys
+
 __version__ = "0.1.0"
 
 __all__ = ["evaluate"]
 
 
-def _register_envs() -> None:
-    import gymnasium
-
+def _register_envs(gymnasium) -> None:
     if "acc_fusion/CollisionWarning-v0" not in gymnasium.registry:
         gymnasium.register(
             id="acc_fusion/CollisionWarning-v0",
@@ -28,7 +30,31 @@ def _register_envs() -> None:
         )
 
 
-_register_envs()
+class _RegisterWithGymnasium(importlib.abc.MetaPathFinder):
+    """Registers the environments the moment gymnasium is imported, so that importing
+    acc_fusion does not import gymnasium (a quarter of a second the command line does not
+    need) and ``import acc_fusion`` still makes ``gymnasium.make`` find them."""
+
+    def find_spec(self, name, path, target=None):
+        if name != "gymnasium":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.loader is not None:
+            load = spec.loader.exec_module
+
+            def exec_module(module) -> None:
+                load(module)
+                _register_envs(module)
+
+            spec.loader.exec_module = exec_module
+        return spec
+
+
+if "gymnasium" in sys.modules:
+    _register_envs(sys.modules["gymnasium"])
+else:
+    sys.meta_path.insert(0, _RegisterWithGymnasium())
 
 
 def __getattr__(name: str):

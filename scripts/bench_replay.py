@@ -26,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from acc_fusion.cli.common import positive_float, positive_int
+from acc_fusion.cli.arguments import positive_float, positive_int
 from acc_fusion.sim.closed_loop import DEFAULT_METHODS, SimConfig, simulate
 from acc_fusion.truth.replay.recording import MAX_ROWS
 from acc_fusion.truth.replay.source import ReplayConfig, ReplaySource

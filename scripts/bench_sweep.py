@@ -23,7 +23,7 @@ import argparse
 import tempfile
 import time
 
-from acc_fusion.cli.common import positive_int
+from acc_fusion.cli.arguments import positive_int
 from acc_fusion.sweep.config import SweepConfig
 from acc_fusion.sweep.run import run_sweep
 

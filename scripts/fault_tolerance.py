@@ -31,7 +31,8 @@ import math
 import numpy as np
 from tqdm.auto import tqdm
 
-from acc_fusion.cli.common import positive_int, sim_config, study_parser
+from acc_fusion.cli.arguments import positive_int, study_parser
+from acc_fusion.cli.common import sim_config
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.table import Table

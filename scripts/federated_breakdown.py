@@ -50,13 +50,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.stats import chi2
 
-from acc_fusion.cli.common import (
-    add_sim_arguments,
-    add_traffic_arguments,
-    positive_float,
-    traffic_config,
-    traffic_sim_config,
-)
+from acc_fusion.cli.arguments import add_sim_arguments, add_traffic_arguments, positive_float
+from acc_fusion.cli.common import traffic_config, traffic_sim_config
 from acc_fusion.core.slots import resize_all
 from acc_fusion.metrics.events import FCWMetrics
 from acc_fusion.metrics.stats import poisson_rate_interval

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acc_fusion.cli.common import add_scenario_arguments, scenario_config
+from acc_fusion.cli.arguments import add_scenario_arguments
+from acc_fusion.cli.common import scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.metrics.realism import braking_onsets, by_odometer
 from acc_fusion.truth.sumo.config import SumoConfig

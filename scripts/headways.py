@@ -24,7 +24,8 @@ import sys
 
 import numpy as np
 
-from acc_fusion.cli.common import add_scenario_arguments, scenario_config
+from acc_fusion.cli.arguments import add_scenario_arguments, output_path
+from acc_fusion.cli.common import scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.plots import plt
@@ -67,7 +68,9 @@ def figure(h: np.ndarray, title: str):
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_scenario_arguments(p, 120.0, "sampling")
-    p.add_argument("--plot", metavar="PNG", help="write the histogram and CDF here")
+    p.add_argument(
+        "--plot", metavar="PNG", type=output_path, help="write the histogram and CDF here"
+    )
     args = p.parse_args(argv)
     try:
         path, config = scenario_config(args)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acc_fusion.cli.common import study_parser
+from acc_fusion.cli.arguments import study_parser
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.studies.estimation import kong2011

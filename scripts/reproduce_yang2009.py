@@ -15,6 +15,7 @@ import argparse
 
 import numpy as np
 
+from acc_fusion.cli.arguments import output_path
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.filters.ego import YANG2009_ACCEL_OFFSET, Yang2009Run, simulate_yang2009
 
@@ -64,7 +65,9 @@ def plot(run: Yang2009Run, path: str) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    parser.add_argument("--plot", metavar="PATH", help="write a PNG of speed and bias here")
+    parser.add_argument(
+        "--plot", metavar="PATH", type=output_path, help="write a PNG of speed and bias here"
+    )
     args = parser.parse_args(argv)
     run = simulate_yang2009(duration=WINDOW_EDGES[-1], seed=args.seed)
     print(f"yang2009 §4 reproduction, seed {args.seed}; true offset {YANG2009_ACCEL_OFFSET:g}")

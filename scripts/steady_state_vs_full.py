@@ -12,7 +12,7 @@ cost per pair-step of each, measured in the same run.
 
 from __future__ import annotations
 
-from acc_fusion.cli.common import study_parser
+from acc_fusion.cli.arguments import study_parser
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.studies.estimation import steady_vs_full
 

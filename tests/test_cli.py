@@ -28,7 +28,8 @@ def test_unwritable_output_folder_is_a_one_line_error(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert (
-        err.startswith("acc-fusion: error: cannot create output folder") and "Traceback" not in err
+        err.startswith("acc-fusion: error: argument --out: output folder")
+        and "Traceback" not in err
     )
 
 

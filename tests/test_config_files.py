@@ -13,7 +13,7 @@ import pytest
 from acc_fusion.cli.main import main
 from acc_fusion.core.config import from_mapping, load_mapping
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import write_text_atomic
+from acc_fusion.core.outputs import json_text, write_text_atomic
 from acc_fusion.core.schema import json_schema
 from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sweep.config import SweepConfig
@@ -155,7 +155,7 @@ def test_config_schema_describes_every_field(tmp_path, capsys):
     code, _, _ = run_cli(["config", "schema", "--out", str(target)], capsys)
     assert code == 0
     schema = json.loads(target.read_text())
-    assert schema == json.loads(json.dumps(json_schema(SimConfig, "acc_fusion config file")))
+    assert schema == json.loads(json_text(json_schema(SimConfig, "acc_fusion config file")))
     props = schema["properties"]
     assert props["runs"]["type"] == "integer" and props["runs"]["default"] == 200
     assert props["fusion"]["properties"]["filter"]["properties"]["jerk_std"]["type"] == "number"

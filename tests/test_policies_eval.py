@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
@@ -11,6 +10,7 @@ import pytest
 pytest.importorskip("gymnasium")
 
 from acc_fusion.cli import evaluate as evaluate_command
+from acc_fusion.cli.main import build_parser
 from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.envs.evaluation import episode_seed, evaluate, evaluate_many
 from acc_fusion.envs.loader import load_policy
@@ -308,9 +308,8 @@ def test_an_sb3_model_file_needs_stable_baselines3(tmp_path):
 
 
 def run_command(argv):
-    parser = argparse.ArgumentParser(prog="acc-fusion")
-    evaluate_command.add_parser(parser.add_subparsers(dest="command", required=True))
-    return evaluate_command.run(parser.parse_args(["evaluate", *argv]))
+    args = build_parser(["evaluate"]).parse_args(["evaluate", *argv])
+    return evaluate_command.run(args)
 
 
 def test_evaluate_command_prints_the_table_and_writes_files(tmp_path, capsys):

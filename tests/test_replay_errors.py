@@ -3,7 +3,12 @@ nothing is written."""
 
 from __future__ import annotations
 
+import re
+import warnings
+from pathlib import Path
+
 import pytest
+import tomllib
 
 from acc_fusion.cli.main import main
 from acc_fusion.truth.replay.synthetic import simulate_traffic, write_csv, write_highd
@@ -113,3 +118,63 @@ def test_a_bad_csv_mapping_key(tmp_path, traffic, capsys):
 def test_a_missing_ngsim_file(tmp_path, capsys):
     err = _replay_error(capsys, "--format", "ngsim", "--path", str(tmp_path / "nope.csv"))
     assert "nope.csv' does not exist" in err
+
+
+@pytest.mark.parametrize(
+    "column, value, words",
+    [
+        ("v", "900", "column 'v': speed [m/s] 900 is outside [-10, 100]"),
+        ("s_mid", "1e12", "column 's_mid': position [m] 1e+12 is outside"),
+        ("a", "-400", "column 'a': acceleration [m/s²] -400 is outside [-30, 30]"),
+        ("length", "0", "column 'length': length [m] 0 is outside [0.5, 60]"),
+        ("id", "-7", "column 'id': vehicle id -7 is outside"),
+        ("id", "1e30", "column 'id': vehicle id"),  # was a RuntimeWarning (tests/test_fuzz.py)
+    ],
+)
+def test_a_physically_impossible_row_is_refused_or_dropped(
+    tmp_path, traffic, capsys, column, value, words
+):
+    """Such rows were accepted and gave absurd exposure figures without a word."""
+    path = write_csv(traffic, tmp_path / "t.csv")
+    _edit_line(path, 6, lambda f: [value if i == _column(path, column) else x
+                                   for i, x in enumerate(f)])  # fmt: skip
+    mapping = tmp_path / "m.toml"
+    mapping.write_text('position = "s_mid"\nposition_ref = "centre"\nlateral = "y"\n')
+    args = ["--format", "csv", "--path", str(path), "--mapping", str(mapping)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        err = _replay_error(capsys, *args)
+    assert "t.csv', row 5, " in err and words in err and "--bad-rows drop" in err
+    assert main(["replay", *args, "--bad-rows", "drop"]) == 0
+    assert "t: dropped 1 of its rows, outside the physical bounds" in capsys.readouterr().out
+
+
+def test_all_rows_at_one_time_are_refused(tmp_path, traffic, capsys):
+    path = write_csv(traffic, tmp_path / "t.csv")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0]] + ["0.0," + x.split(",", 1)[1] for x in lines[1:]]))
+    mapping = tmp_path / "m.toml"
+    mapping.write_text('position = "s_mid"\nlateral = "y"\n')
+    err = _replay_error(capsys, "--format", "csv", "--path", str(path), "--mapping", str(mapping))
+    assert f"all {len(lines) - 1} rows are at one time (frame 0); column 't' must advance" in err
+
+
+def test_the_guides_csv_mapping_replays_the_csv_it_describes(tmp_path, traffic, capsys):
+    """The mapping example of docs/guide/replay.md (lateral, no lane: TOML cannot say
+    ``lane = null``) asked for a column ``lane``; here it replays a CSV of the columns it
+    names."""
+    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "replay.md").read_text()
+    block = re.search(r"```toml\n(\[columns\].*?)```", guide, flags=re.S).group(1)
+    mapping = tmp_path / "mine.toml"
+    mapping.write_text(block)
+    columns = tomllib.loads(block)["columns"]
+    path = write_csv(traffic, tmp_path / "mine.csv")
+    ours = {"id": "id", "time": "t", "position": "s_mid", "lateral": "y", "speed": "v",
+            "accel": "a", "length": "length", "leader": "lead"}  # fmt: skip
+    header = path.read_text().split("\n", 1)
+    names = [columns.get(k, k) for k in (dict(zip(ours.values(), ours, strict=True)).get(c, c)
+                                         for c in header[0].split(","))]  # fmt: skip
+    path.write_text(",".join(names) + "\n" + header[1])
+    args = ["replay", "--format", "csv", "--path", str(path), "--mapping", str(mapping)]
+    assert main(args) == 0
+    assert "Exposure per recording" in capsys.readouterr().out

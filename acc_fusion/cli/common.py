@@ -1,174 +1,28 @@
-"""What the commands share: argparse types, the study-script parser, the SimConfig from file and
-flags, and the writing of a study's outputs."""
+"""What the commands' work shares: the SimConfig from file and flags, the SUMO configs of the
+traffic commands, and the writing of a study's outputs (their arguments:
+:mod:`acc_fusion.cli.arguments`)."""
 
 from __future__ import annotations
 
 import argparse
 from dataclasses import replace
 
-import yaml
-
 from acc_fusion.core.config import from_mapping, load_mapping, load_yaml
 from acc_fusion.core.errors import AccFusionError, ConfigError
-from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic, write_json_atomic
+from acc_fusion.core.outputs import (
+    save_figure_atomic,
+    write_csv_atomic,
+    write_json_atomic,
+)
 from acc_fusion.core.plots import rates_figure
 from acc_fusion.core.schema import field_at, set_path
 from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
-from acc_fusion.sweep.executors import EXECUTORS
 from acc_fusion.truth.distraction import TRAFFIC_CALM, TRAFFIC_DISTRACTION_RATE
-from acc_fusion.truth.sumo.config import TRAFFIC_WARMUP, SumoConfig
+from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
-
-
-def positive_int(text: str) -> int:
-    """argparse type: a whole number >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def positive_float(text: str) -> float:
-    """argparse type: a number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value:g}")
-    return value
-
-
-def study_parser(doc: str, runs: int, plot_help: str | None = None) -> argparse.ArgumentParser:
-    """Parser of a study script: ``--runs``, ``--seed`` and, with ``plot_help``, ``--plot``."""
-    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
-    parser.add_argument(
-        "--runs", type=positive_int, default=runs, help=f"Monte Carlo runs (default {runs})"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of truth and noise (default 0)")
-    if plot_help:
-        parser.add_argument("--plot", metavar="PATH", help=plot_help)
-    return parser
-
-
-def seed(text: str) -> int:
-    """argparse type: a seed, a whole number in [0, 2**63)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
-    if not 0 <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"must be in [0, 2**63), got {value}")
-    return value
-
-
-def add_config_arguments(p: argparse.ArgumentParser) -> None:
-    """``--config FILE`` and ``--set KEY=VALUE`` (repeatable): the simulation config's sources."""
-    p.add_argument(
-        "--config",
-        metavar="FILE",
-        help="TOML or YAML file of config fields (see `acc-fusion config schema`)",
-    )
-    p.add_argument(
-        "--set",
-        metavar="KEY=VALUE",
-        action="append",
-        default=[],
-        dest="overrides",
-        help="set one config field by its dotted path, e.g. --set fusion.reset=zero "
-        "(applied after --config; VALUE is read as YAML)",
-    )
-
-
-def add_sim_arguments(p: argparse.ArgumentParser, runs_help: str | None) -> None:
-    """The arguments of every command that runs the simulation: the config's sources, ``--seed``
-    and, with ``runs_help``, ``--runs``."""
-    add_config_arguments(p)
-    p.add_argument("--seed", type=seed, help="random seed (default 0)")
-    if runs_help:
-        p.add_argument("--runs", type=positive_int, help=runs_help)
-
-
-def add_executor_arguments(p: argparse.ArgumentParser, what: str = "") -> None:
-    """``--executor``, ``--address`` and ``--workers``: where parallel runs go (local
-    processes or Ray, :func:`acc_fusion.sweep.executors.make_map`); ``what`` prefixes their
-    help (e.g. ``"with --seeds: "``)."""
-    p.add_argument(
-        "--executor",
-        choices=EXECUTORS,
-        default="local",
-        help=f"{what}where to run: local processes or Ray (default local)",
-    )
-    p.add_argument(
-        "--address",
-        metavar="ADDR",
-        help=f"{what}Ray cluster address HOST:PORT or ray://HOST:PORT (default: a local Ray)",
-    )
-    p.add_argument(
-        "--workers",
-        type=positive_int,
-        default=2,
-        help=f"{what}worker processes (local) or CPUs of the local Ray (default 2)",
-    )
-
-
-def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
-    """The SUMO traffic's flags of the commands that run it (``sumo``, ``tune``):
-    ``--penetration``, ``--hazard-rate``, ``--inattentive``."""
-    p.add_argument(
-        "--penetration", type=float, default=1.0, help="fraction of equipped vehicles (default 1)"
-    )
-    p.add_argument(
-        "--warmup",
-        type=float,
-        default=TRAFFIC_WARMUP,
-        help="simulated seconds SUMO runs before anything is measured, the network filling "
-        f"(default {TRAFFIC_WARMUP:g}); --end counts after it",
-    )
-    p.add_argument(
-        "--hazard-rate",
-        type=float,
-        default=2.0,
-        help="injected emergency brakings per vehicle-hour (default 2)",
-    )
-    p.add_argument(
-        "--inattentive",
-        type=float,
-        default=0.2,
-        help="fraction of equipped drivers who react late (default 0.2)",
-    )
-    p.add_argument(
-        "--distraction",
-        type=float,
-        metavar="RATE",
-        help="eyes-off-road episodes per driving hour of each equipped driver (default "
-        f"{TRAFFIC_DISTRACTION_RATE:g}; 0: none; driver.distraction.* for the durations)",
-    )
-
-
-def add_scenario_arguments(
-    p: argparse.ArgumentParser, warmup: float | None, before: str
-) -> argparse._MutuallyExclusiveGroup:
-    """The arguments of a script that measures a SUMO scenario's own traffic: ``--net``
-    (default motorway) or ``--sumocfg``, ``--end``, ``--warmup`` (default ``warmup``, the
-    seconds ``before`` measuring) and ``--seed``.  Returns the group of ``--net`` and
-    ``--sumocfg``, for a script that offers other sources beside them."""
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
-    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
-    p.add_argument("--end", type=float, default=300.0, help="simulated seconds (default 300)")
-    default = "by source" if warmup is None else f"{warmup:g}"
-    p.add_argument(
-        "--warmup", type=float, default=warmup, help=f"seconds before {before} ({default})"
-    )
-    p.add_argument("--seed", type=int, default=0, help="SUMO seed (default 0)")
-    return where
 
 
 def scenario_config(args: argparse.Namespace):
@@ -237,11 +91,7 @@ def config_data(args: argparse.Namespace) -> tuple[dict, str]:
         if not sep or not key:
             raise ConfigError(f"--set takes KEY=VALUE, got {item!r}")
         field_at(SimConfig, key)  # raises, naming the allowed keys
-        try:
-            value = load_yaml(text)
-        except yaml.YAMLError:
-            raise ConfigError(f"--set {key}: {text!r} is not a YAML value") from None
-        set_path(data, key, value)
+        set_path(data, key, load_yaml(text, f"--set {key}"))
         sources.append("--set")
     return data, " / ".join(dict.fromkeys(sources))
 

@@ -7,43 +7,13 @@ from __future__ import annotations
 import argparse
 
 from acc_fusion.cli.common import (
-    add_sim_arguments,
     sim_config,
     with_driver,
     write_summary,
 )
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import rates_figure
 from acc_fusion.studies.compare import COMPARE_CLUTTER, compare
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``compare`` command."""
-    p = subparsers.add_parser(
-        "compare",
-        help="radar, infrared, centralized, federated: false alarms, misses, lead time",
-        description="Radar alone, infrared alone, centralized and federated fusion on the "
-        "same randomised scenarios and seeds (with radar clutter): false alarms per hour and "
-        "per 100 km, miss rate, lead time, with 95% intervals; then collisions with the "
-        "federated alerts on and off, closed loop, on the same seeds.",
-    )
-    add_sim_arguments(p, "Monte Carlo runs (default 200)")
-    p.add_argument(
-        "--distraction",
-        type=float,
-        metavar="RATE",
-        help="a human driver in the closed loops: he brakes by himself for a crash-relevant "
-        "situation when his eyes are on the road, and looks away RATE times per hour "
-        "(default: a driver who never brakes by himself)",
-    )
-    p.add_argument(
-        "--all-drives",
-        action="store_true",
-        help="one closed loop with warnings on per method (radar, infrared, centralized, "
-        "federated driving the alert), to compare the crashes each avoids",
-    )
-    p.add_argument("--out", metavar="DIR", help="also write compare.csv/.png/.json here")
-    return p
 
 
 def run(args: argparse.Namespace) -> int:
@@ -51,7 +21,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = sim_config(args, scenario="random", radar=COMPARE_CLUTTER)
     if args.distraction is not None:
         cfg = with_driver(cfg, args.distraction, sees_threats=True)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     comparison = compare(cfg, progress=True, drives=cfg.methods if args.all_drives else ())
     table, classes = comparison.table(), comparison.classes()
     print(table.format() + "\n\n" + classes.format())

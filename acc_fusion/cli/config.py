@@ -13,33 +13,15 @@ import argparse
 import json
 import sys
 
-from acc_fusion.cli.common import add_config_arguments, config_data, sim_config
-from acc_fusion.core.outputs import write_text_atomic
+from acc_fusion.cli.common import config_data, sim_config
+from acc_fusion.core.outputs import json_text, write_text_atomic
 from acc_fusion.core.schema import describe, json_schema
 from acc_fusion.sim.closed_loop import SimConfig
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """The ``config`` command and its ``show`` and ``schema`` subcommands."""
-    p = subparsers.add_parser(
-        "config",
-        help="the resolved configuration with units and origins, or its JSON Schema",
-        description=__doc__.split("\n\n")[0],
-    )
-    sub = p.add_subparsers(dest="config_command", metavar="SUBCOMMAND", required=True)
-    show = sub.add_parser(
-        "show", help="every config field: value, unit, and where the value comes from"
-    )
-    add_config_arguments(show)
-    show.add_argument("--json", action="store_true", help="print the rows as JSON")
-    schema = sub.add_parser("schema", help="the JSON Schema of config files")
-    schema.add_argument("--out", metavar="FILE", help="write it to FILE (default: standard output)")
-    return p
-
-
 def run(args: argparse.Namespace) -> int:
     if args.config_command == "schema":
-        text = json.dumps(json_schema(SimConfig, title="acc_fusion config file"), indent=2)
+        text = json_text(json_schema(SimConfig, title="acc_fusion config file"))
         if args.out:
             write_text_atomic(args.out, text + "\n")
             print(f"wrote {args.out}")
@@ -50,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     given, source = config_data(args)
     rows = describe(cfg, given, source)
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(json_text(rows))
         return 0
     print(format_rows(rows))
     return 0

@@ -9,37 +9,17 @@ import argparse
 import numpy as np
 
 from acc_fusion.cli.common import (
-    add_sim_arguments,
-    positive_int,
     sim_config,
 )
-from acc_fusion.core.outputs import output_dir, write_csv_atomic
+from acc_fusion.core.outputs import write_csv_atomic
 from acc_fusion.core.table import Table
 from acc_fusion.studies.compare import conformance
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``conformance`` command."""
-    p = subparsers.add_parser(
-        "conformance",
-        help="standard FCW manoeuvres against the protocols' requirements (exit 1 on failure)",
-        description="Run the NHTSA FCW confirmation tests and Euro NCAP's car-to-car rear "
-        "stationary test with noisy sensors, several trials each; print the TTC at the first "
-        "alert of every trial against the protocol's requirement. Exit code 0 only when every "
-        "manoeuvre passes by its pass rule (5 of 7 trials).",
-    )
-    p.add_argument(
-        "--trials", type=positive_int, default=7, help="trials per manoeuvre (default 7)"
-    )
-    add_sim_arguments(p, None)
-    p.add_argument("--out", metavar="DIR", help="also write conformance.csv here")
-    return p
 
 
 def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     results = conformance(args.trials, cfg.seed, cfg, progress=True)
     rows = []
     for res in results:

@@ -9,37 +9,19 @@ import argparse
 import numpy as np
 
 from acc_fusion.cli.common import (
-    add_sim_arguments,
     sim_config,
     write_summary,
 )
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import run_figure
 from acc_fusion.sim.closed_loop import simulate
 from acc_fusion.sim.hooks import Trace
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``run`` command."""
-    p = subparsers.add_parser(
-        "run",
-        help="one scenario, closed loop: summary, PNG, trace CSV, JSON",
-        description="Run one scenario closed loop: the federated filter's alerts make the "
-        "simulated driver brake. Prints each method's FCW summary and writes a PNG (truth, "
-        "radar, infrared, local and fused gap with 2-sigma bands, safety distance, warning "
-        "bands), the trace of run 0 as CSV and a JSON summary.",
-    )
-    p.add_argument("--scenario", required=True, help="scenario name (see the error for the list)")
-    add_sim_arguments(p, "runs of the scenario (default 1)")
-    p.add_argument("--method", help="method whose alerts drive the closed loop (default federated)")
-    p.add_argument("--out", metavar="DIR", default="out", help="output folder (default out)")
-    return p
-
-
 def run(args: argparse.Namespace) -> int:
 
     cfg = sim_config(args, runs=1, drive="federated", methods=("radar", "infrared", "federated"))
-    out = output_dir(args.out)
+    out = args.out
     trace = Trace(cfg.warning)
     result = simulate(cfg, progress=True, on_step=trace)
     for method, summary in result.summaries.items():

@@ -5,31 +5,13 @@ a report.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from acc_fusion.cli.common import add_executor_arguments
 from acc_fusion.core.table import Table
 from acc_fusion.sweep.aggregate import aggregate, formatted
 from acc_fusion.sweep.config import load_sweep
 from acc_fusion.sweep.run import run_sweep
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``sweep`` command to the ``acc-fusion`` sub-parsers."""
-
-    p = subparsers.add_parser(
-        "sweep",
-        help="Monte Carlo sweep over sensors, faults, fusion and warning settings (resumable)",
-        description="Run a sweep (a TOML/YAML file: grid and random axes over SimConfig "
-        "fields, SUMO settings and seeds) on local processes or Ray. Writes one row per run "
-        "and method to DIR/runs.parquet, aggregated tables with 95% intervals, ROC/DET "
-        "curves and a report. Rerunning with the same --out skips the finished chunks.",
-    )
-    p.add_argument("config", metavar="CONFIG", help="sweep config file (.toml, .yaml or .yml)")
-
-    add_executor_arguments(p)
-    p.add_argument("--out", metavar="DIR", help="output folder (default out/sweep_<name>)")
-    return p
 
 
 def run(args: argparse.Namespace) -> int:
@@ -38,6 +20,11 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_sweep(args.config)
     out = Path(args.out or Path("out") / f"sweep_{cfg.name}")
     result = run_sweep(cfg, out, executor=args.executor, workers=args.workers, address=args.address)
+    if result.damaged:
+        damaged = ", ".join(result.damaged)
+        print(
+            f"acc-fusion: warning: {out} held damaged files, recovered: {damaged}", file=sys.stderr
+        )
     methods = aggregate(result.rows, ["method"])
     rows = formatted(methods)
     table = Table(

@@ -6,54 +6,16 @@ from __future__ import annotations
 import argparse
 
 from acc_fusion.cli.common import (
-    add_config_arguments,
-    add_traffic_arguments,
     config_data,
-    positive_float,
-    positive_int,
     traffic_config,
     traffic_sim_config,
 )
 from acc_fusion.core.config import load_yaml
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.core.plots import tradeoff_figure
 from acc_fusion.studies.tune import point_configs, record_sumo, tune, tune_table
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``tune`` command."""
-    p = subparsers.add_parser(
-        "tune",
-        help="warning settings: NHTSA test margin against nuisance alerts in traffic",
-        description="For every point of a grid of warning settings (--grid KEY=[V1, V2, ...], "
-        "dotted config paths, repeatable: a Cartesian product), measure the margin on the "
-        "NHTSA FCW confirmation tests (noisy sensors, 7 trials) and the rule's alerts per "
-        "100 km by class on the truth of one SUMO run (recorded once, perfect sensing). "
-        "Prints the table with the Pareto front; --out adds tune.csv and tune.png.",
-    )
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
-    where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
-    p.add_argument(
-        "--end", type=positive_float, default=300.0, help="simulated seconds (default 300)"
-    )
-    p.add_argument(
-        "--grid",
-        action="append",
-        required=True,
-        metavar="KEY=VALUES",
-        help="a swept setting and its values as a YAML list, e.g. "
-        "'warning.params.decel_imminent=[4, 5, 6]' (with --set warning.model=...)",
-    )
-    add_traffic_arguments(p)
-    p.add_argument(
-        "--trials", type=positive_int, default=7, help="trials per test manoeuvre (default 7)"
-    )
-    add_config_arguments(p)
-    p.add_argument("--out", metavar="DIR", help="also write tune.csv and tune.png here")
-    return p
 
 
 def _axes(items: list[str]) -> dict[str, list]:
@@ -62,7 +24,7 @@ def _axes(items: list[str]) -> dict[str, list]:
         key, sep, text = item.partition("=")
         if not sep or not key:
             raise ConfigError(f"--grid takes KEY=[V1, V2, ...], got {item!r}")
-        values = load_yaml(text)
+        values = load_yaml(text, f"--grid {key}")
         if not isinstance(values, list) or not values:
             raise ConfigError(f"--grid {key}: give a non-empty list of values, got {text!r}")
         axes[key] = values
@@ -73,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     axes = _axes(args.grid)
     base, _ = config_data(args)
     configs = point_configs(base, axes)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     path = resolve_sumocfg(None if args.sumocfg else args.net, args.sumocfg)
     seed = int(base.get("seed", 0))
     traffic = traffic_sim_config(args)

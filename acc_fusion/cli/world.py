@@ -5,17 +5,16 @@ by class and by cause per method."""
 from __future__ import annotations
 
 import argparse
-import math
 
-from acc_fusion.cli.common import add_sim_arguments, sim_config, write_summary
+from acc_fusion.cli.common import (
+    sim_config,
+    write_summary,
+)
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.outputs import output_dir, save_figure_atomic, write_csv_atomic
+from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.studies.world import world_study
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.scenes import SCENES
-
-#: The conditions of ``--conditions`` by default: day, night, and day in fog of 25 m.
-DEFAULT_CONDITIONS = ("day", "night", "fog=25")
 
 
 def parse_conditions(text: str) -> Conditions:
@@ -30,7 +29,9 @@ def parse_conditions(text: str) -> Conditions:
             try:
                 number = float(value)
             except ValueError:
-                number = math.nan
+                raise ConfigError(
+                    f"--conditions {text!r}: {key} takes a number, got {value!r}"
+                ) from None
             fields["fog_visibility" if key == "fog" else "rain_rate"] = number
         else:
             raise ConfigError(
@@ -40,53 +41,12 @@ def parse_conditions(text: str) -> Conditions:
     return Conditions(**fields)
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``world`` command."""
-    p = subparsers.add_parser(
-        "world",
-        help="the 2-D scenes (curves, cut-in/out, gantry, parked car) under weather and light: "
-        "alerts by class and cause per method",
-        description="Run the scripted 2-D scenes through the object-level pipeline: a radar and "
-        "a thermal camera that see every object ahead, a multi-target tracker per sensor, "
-        "track-to-track association, every method's estimator per object, in-path target "
-        "selection and the warning. Prints per scene the alerts by class (judged from truth) "
-        "and, pooled over the scenes, the nuisance and sensing-false alerts by cause.",
-    )
-    p.add_argument(
-        "--scene",
-        action="append",
-        choices=sorted(SCENES),
-        help="a scene (repeatable; default: all)",
-    )
-    p.add_argument(
-        "--conditions",
-        nargs="+",
-        metavar="C",
-        default=list(DEFAULT_CONDITIONS),
-        help="weather and light: day, night, fog=METRES, rain=MM_PER_H, joined by '+' "
-        f"(default: {' '.join(DEFAULT_CONDITIONS)})",
-    )
-    add_sim_arguments(p, "runs per scene and condition (default 50)")
-    p.add_argument(
-        "--plot",
-        metavar="PNG",
-        help="write the figure of the alerts by cause per 100 km, with 95%% intervals, here",
-    )
-    p.add_argument(
-        "--out",
-        metavar="DIR",
-        help="also write CSV (the tables, and the rates by cause with their intervals) and "
-        "JSON here",
-    )
-    return p
-
-
 def run(args: argparse.Namespace) -> int:
     """``acc-fusion world``: print the tables (and write them with ``--out``)."""
     conditions = [parse_conditions(c) for c in args.conditions]
     scenes = args.scene or sorted(SCENES)
     config = sim_config(args, runs=50)
-    out = output_dir(args.out) if args.out else None
+    out = args.out
     study = world_study(config, scenes, conditions, progress=True)
     tables = {"world_scenes": study.scenes(), "world_causes": study.causes()}
     print("\n\n".join(t.format() for t in tables.values()))

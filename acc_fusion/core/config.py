@@ -20,6 +20,7 @@ from typing import Any, TypeVar
 import yaml
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.paths import existing_file
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -41,39 +42,104 @@ _YamlLoader.add_implicit_resolver(
 )
 
 
-def load_yaml(text: str) -> Any:
-    """One YAML document, safely (numbers in exponent form without a dot included)."""
-    return yaml.load(text, Loader=_YamlLoader)  # noqa: S506 (a SafeLoader subclass)
+#: The largest config or spec file read [bytes]: a config is a page of settings, and a
+#: larger file is a mistake (a data file given as a config), read no further.
+MAX_FILE_BYTES = 1 << 20
+#: The deepest nesting of tables and lists in a config, and the most values it holds: deeper
+#: or larger structures (or YAML aliases that expand into them) are refused before any work.
+MAX_DEPTH = 32
+MAX_VALUES = 100_000
+
+
+def load_yaml(text: str, where: str = "the YAML text") -> Any:
+    """One YAML document, safely (numbers in exponent form without a dot included); a syntax
+    error, or a document nested deeper than :data:`MAX_DEPTH` or holding more than
+    :data:`MAX_VALUES` values, is one :class:`ConfigError` naming ``where`` (and the line and
+    column)."""
+    return _parsed(text, "yaml", where)
+
+
+def _parsed(text: str, fmt: str, where: str) -> Any:
+    """``text`` parsed as ``fmt`` (``"yaml"`` or ``"toml"``) and checked by :func:`_bounded`;
+    its syntax errors as one :class:`ConfigError` with line and column."""
+    try:
+        if fmt == "toml":
+            data = tomllib.loads(text)
+        else:
+            data = yaml.load(text, Loader=_YamlLoader)  # noqa: S506 (a SafeLoader subclass)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ConfigError(f"{where} is not valid YAML{at}: {exc.problem or exc.context}") from None
+    except yaml.YAMLError as exc:  # a character YAML does not allow: its first line says which
+        problem = " ".join(str(exc).splitlines()[0].split())
+        raise ConfigError(f"{where} is not valid YAML: {problem}") from None
+    except tomllib.TOMLDecodeError as exc:
+        problem, _, at = str(exc).partition(" (at ")
+        at = f" at {at.rstrip(')')}" if at else ""
+        raise ConfigError(f"{where} is not valid TOML{at}: {problem}") from None
+    except RecursionError:
+        raise ConfigError(f"{where} nests deeper than {MAX_DEPTH} levels") from None
+    _bounded(data, where)
+    return data
+
+
+def _bounded(data: Any, where: str) -> None:
+    """A :class:`ConfigError` if ``data`` nests tables and lists deeper than :data:`MAX_DEPTH`
+    or holds more than :data:`MAX_VALUES` values (shared YAML aliases counted each time)."""
+    todo = [(data, 0)]
+    count = 0
+    while todo:
+        value, depth = todo.pop()
+        count += 1
+        if depth > MAX_DEPTH:
+            raise ConfigError(f"{where} nests deeper than {MAX_DEPTH} levels")
+        if count > MAX_VALUES:
+            raise ConfigError(f"{where} holds more than {MAX_VALUES} values")
+        if isinstance(value, Mapping):
+            todo.extend((v, depth + 1) for v in value.values())
+        elif isinstance(value, (list, tuple)):
+            todo.extend((v, depth + 1) for v in value)
 
 
 def load_mapping(path: str | Path) -> dict[str, Any]:
-    """Read a TOML (``.toml``) or YAML (``.yaml``/``.yml``) file into a dict."""
-    p = Path(path)
-    if not p.is_file():
-        raise ConfigError(f"config file {str(p)!r} does not exist")
+    """Read a TOML (``.toml``) or YAML (``.yaml``/``.yml``) file into a dict: one
+    :class:`ConfigError` naming the file (and the line and column of a syntax error) if it is
+    missing, not a regular file, over :data:`MAX_FILE_BYTES`, not UTF-8, not valid, or not a
+    mapping."""
+    p = existing_file(path, "config file")
+    where = f"config file {str(p)!r}"
     suffix = p.suffix.lower()
     if suffix not in (".toml", ".yaml", ".yml"):
-        raise ConfigError(f"config file {str(p)!r} must end in .toml, .yaml or .yml")
+        raise ConfigError(f"{where} must end in .toml, .yaml or .yml")
     try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(f"config file {str(p)!r} is not UTF-8 text") from None
+        with p.open("rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
-        raise ConfigError(f"config file {str(p)!r} cannot be read: {exc.strerror}") from None
+        raise ConfigError(f"{where} cannot be read: {exc.strerror}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ConfigError(f"{where} is larger than {MAX_FILE_BYTES >> 20} MiB")
     try:
-        data = tomllib.loads(text) if suffix == ".toml" else load_yaml(text) or {}
-    except (tomllib.TOMLDecodeError, yaml.YAMLError) as exc:
-        raise ConfigError(f"config file {str(p)!r} is not valid {suffix[1:]}: {exc}") from None
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{where} is not UTF-8 text") from None
+    data = _parsed(text, "toml" if suffix == ".toml" else "yaml", where)
+    if data is None:
+        return {}
     if not isinstance(data, dict):
-        raise ConfigError(f"config file {str(p)!r} must hold a mapping at the top level")
+        raise ConfigError(f"{where} must hold a mapping at the top level")
     return data
 
 
 def from_mapping(cls: type[T], data: Mapping[str, Any] | None, prefix: str = "") -> T:
     """Build dataclass ``cls`` from ``data``; nested dataclass fields are built recursively.
 
-    Unknown keys raise :class:`ConfigError` naming the key and listing the allowed ones.
+    Unknown keys, and missing keys of fields without a default, raise :class:`ConfigError`
+    naming the key (its dotted path) and listing the allowed or required ones.
     """
+    if data is not None and not isinstance(data, Mapping):
+        where = prefix.rstrip(".") or cls.__name__
+        raise ConfigError(f"{where} must be a table/mapping, got {data!r}")
     data = dict(data or {})
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(data) - set(fields))
@@ -81,6 +147,17 @@ def from_mapping(cls: type[T], data: Mapping[str, Any] | None, prefix: str = "")
         where = prefix.rstrip(".") or cls.__name__
         raise ConfigError(
             f"unknown key {prefix}{unknown[0]!r} in {where}; allowed keys: {', '.join(fields)}"
+        )
+    required = [
+        name
+        for name, f in fields.items()
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    ]
+    lacking = [name for name in required if name not in data]
+    if lacking:
+        where = prefix.rstrip(".") or cls.__name__
+        raise ConfigError(
+            f"{where} needs the key {lacking[0]!r} (required keys: {', '.join(required)})"
         )
     hints = typing.get_type_hints(cls)
     kwargs = {}

@@ -9,9 +9,9 @@ import importlib.util
 import inspect
 import os
 import sys
-from pathlib import Path
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.paths import existing_file
 from acc_fusion.envs.policies import BASELINES
 
 #: Stable-Baselines3 algorithms with a discrete action space, for ``[ALGO:]model.zip`` specs.
@@ -28,9 +28,7 @@ _SPEC_HELP = (
 def _import_module(module_name: str, spec: str):
     """Import ``module_name`` (a dotted name, from the current folder too, or a ``.py`` file)."""
     if module_name.endswith(".py"):
-        path = Path(module_name)
-        if not path.is_file():
-            raise ConfigError(f"--policy {spec!r}: file {module_name!r} does not exist")
+        path = existing_file(module_name, f"--policy {spec!r}: file")
         mod_spec = importlib.util.spec_from_file_location(f"_acc_fusion_policy_{path.stem}", path)
         module = importlib.util.module_from_spec(mod_spec)
         try:
@@ -112,8 +110,7 @@ def _load_sb3(spec: str) -> object:
     algo, sep, path = spec.partition(":")
     if not sep or algo.upper() not in SB3_ALGORITHMS:
         algo, path = "PPO", spec
-    if not Path(path).is_file():
-        raise ConfigError(f"--policy model file {path!r} does not exist")
+    existing_file(path, "--policy model file")
     try:
         import stable_baselines3
     except ImportError:

@@ -54,9 +54,10 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.slots import PairState
-from acc_fusion.core.validation import check_array, check_mask, check_range
+from acc_fusion.core.validation import check_mask, check_range
 
 #: Measurement matrix of the wheel-speed sensor, :math:`H = [1\ 0]`.
 SPEED_MEASUREMENT = np.array([[1.0, 0.0]])

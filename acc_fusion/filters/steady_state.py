@@ -48,8 +48,8 @@ import scipy.linalg
 import scipy.signal
 from numpy.typing import ArrayLike
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.core.validation import check_array
 
 # Relative tolerance for symmetry / definiteness checks and for "on the stability boundary".
 _TOL = 1e-9

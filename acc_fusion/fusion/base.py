@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.motion import (
     MEASUREMENT_MATRIX,
@@ -19,7 +20,6 @@ from acc_fusion.core.motion import (
     ego_input,
 )
 from acc_fusion.core.slots import PairState
-from acc_fusion.core.validation import check_array
 from acc_fusion.filters.engines import Engine
 from acc_fusion.fusion.config import FusionConfig
 from acc_fusion.fusion.kernels import (

@@ -91,9 +91,10 @@ import math
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
-from acc_fusion.core.validation import check_array, check_mask, check_range
+from acc_fusion.core.validation import check_mask, check_range
 from acc_fusion.metrics.event_kernels import _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
 from acc_fusion.metrics.summary import (

@@ -56,8 +56,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
-from acc_fusion.core.validation import check_array, check_choice
+from acc_fusion.core.validation import check_choice
 
 _NHTSA = "NHTSA FCW System Confirmation Test (Feb. 2013)"
 _EURO_NCAP = "Euro NCAP AEB Car-to-Car test protocol v4.3.1 (FCW rule assumed)"

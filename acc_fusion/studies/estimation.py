@@ -14,7 +14,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.table import Table
+from acc_fusion.core.validation import check_range
 from acc_fusion.filters import kalman
 from acc_fusion.fusion.config import FilterConfig, FusionConfig
 from acc_fusion.fusion.estimators import make_estimator
@@ -27,6 +29,12 @@ from acc_fusion.truth.frame import LinearGaussianSource
 
 #: Relative-jerk std of the car-following studies [m/s³]: the truth and the filters share it.
 FOLLOWING_JERK = 0.5
+#: The estimation study's step [s], the time its errors are scored from [s] (the filters
+#: converge before), and its bounds: runs, and the seconds of a run.
+STEP = 0.05
+SCORE_FROM = 1.0
+MAX_RUNS = 1_000_000
+MAX_DURATION = 3600.0
 FOLLOWING_FILTER = FilterConfig(jerk_std=FOLLOWING_JERK)
 #: The fault detector of the studies unless told otherwise (the default one).
 DEFAULT_FDI = FDIConfig()
@@ -210,7 +218,7 @@ def fault_tolerance(
             make_sensors(seed + 1, **kwargs),
             ests,
             int(round(duration / 0.05)),
-            score_from=1.0,
+            score_from=SCORE_FROM,
             on_step=count_isolation,
         )
         for m, st in res.estimators.items():
@@ -261,8 +269,13 @@ def compare_methods(
 
     Car following with the default radar (20 Hz) and infrared (10 Hz) sensors; per method:
     RMSE of gap and range-rate, mean NEES with its 95 % bounds (3 for a consistent filter),
-    and the cost per pair-step.
+    and the cost per pair-step.  ``n_runs`` is at most :data:`MAX_RUNS` and ``duration`` in
+    (:data:`SCORE_FROM`, :data:`MAX_DURATION`] s (else one :class:`ConfigError`), so that
+    something is scored and the run ends.
     """
+    if not isinstance(n_runs, int) or not 1 <= n_runs <= MAX_RUNS:
+        raise ConfigError(f"runs must be a whole number in [1, {MAX_RUNS}], got {n_runs!r}")
+    check_range("duration", duration, SCORE_FROM + STEP, MAX_DURATION)
     ests = {
         label: make_estimator(
             FusionConfig(engine=engine, filter=FOLLOWING_FILTER, **kw), SENSOR_NAMES, n_runs
@@ -271,13 +284,13 @@ def compare_methods(
     }
     timers = dict.fromkeys(ests, 0.0)
     kalman.warmup()
-    n_steps = int(round(duration / 0.05))
+    n_steps = int(round(duration / STEP))
     res = run_estimation(
         following_source(n_runs, seed),
         make_sensors(seed + 1),
         {label: _Timed(e, timers, label) for label, e in ests.items()},
         n_steps,
-        score_from=1.0,
+        score_from=SCORE_FROM,
     )
     lo, hi = chi2_mean_bounds(3, n_runs)
     table = Table(

@@ -11,7 +11,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import LEVEL_NAMES, WARNING_COLORS
-from acc_fusion.core.outputs import output_dir, temporary_beside, write_bytes_atomic
+from acc_fusion.core.outputs import check_output_file, temporary_beside, write_bytes_atomic
 from acc_fusion.core.table import Table
 from acc_fusion.core.validation import check_choice
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
@@ -39,7 +39,7 @@ def check_replay_path(path: str | os.PathLike) -> Path:
     Raises:
         ConfigError: the suffix is not one of :data:`REPLAY_SUFFIXES`, or ``.mp4`` without
             imageio and ffmpeg.
-        AccFusionError: the folder cannot be created or written.
+        AccFusionError: the folder cannot be created or written, or ``path`` is a folder.
     """
 
     p = Path(path)
@@ -56,8 +56,7 @@ def check_replay_path(path: str | os.PathLike) -> Path:
                 "writing an .mp4 replay needs imageio and ffmpeg: pip install imageio "
                 "imageio-ffmpeg (or write a .gif)"
             ) from None
-    output_dir(p.parent if str(p.parent) else ".")
-    return p
+    return check_output_file(p)
 
 
 class Replay:

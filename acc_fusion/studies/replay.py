@@ -68,6 +68,12 @@ class ReplayStudy:
         t.notes.append(
             "leader_agreement: rows whose file and recomputed (lane, position) leaders agree"
         )
+        t.notes += [
+            f"{s.label}: dropped {s.dropped} of its rows, outside the physical bounds "
+            "(--bad-rows drop)"
+            for s in self.stats.values()
+            if s.dropped
+        ]
         return t
 
     def crosscheck(self) -> Table:

@@ -18,14 +18,13 @@ FCW-off run with each method's warnings (:mod:`acc_fusion.metrics.counterfactual
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
@@ -301,8 +300,7 @@ def sumo_study(
     the 2-D pipeline (settings ``sim.world``), so its summaries have the alerts by cause and
     the warnings the drivers hear are the 2-D pipeline's."""
     runs = study_runs(sumo_config, sim, drives=drives, ssm=ssm, world=world, progress=progress)
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
+    with process_pool(f"SUMO on {sumo_config.sumocfg!r}", 2) as pool:
         futures = {name: pool.submit(run_one, args) for name, args in runs.items()}
         return assemble(sumo_config, sim, {name: f.result() for name, f in futures.items()})
 

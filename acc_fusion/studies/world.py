@@ -4,8 +4,6 @@ world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -15,6 +13,7 @@ from matplotlib.patches import Patch
 from tqdm.auto import tqdm
 
 from acc_fusion.core.plots import method_color, plt
+from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.stats import Rate
 from acc_fusion.metrics.summary import (
@@ -202,9 +201,8 @@ def sumo_world_study(
     condition on the same seed, each in its own process, two at a time; the progress bar is
     the first run's."""
     name = Path(sumo_config.sumocfg).stem
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(
-        max_workers=2, mp_context=ctx, initializer=numba.set_num_threads, initargs=(1,)
+    with process_pool(
+        f"SUMO on {sumo_config.sumocfg!r}", 2, initializer=numba.set_num_threads, initargs=(1,)
     ) as pool:  # two runs share the cores: one numba thread each
         jobs = {
             c.label: pool.submit(

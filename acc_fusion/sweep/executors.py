@@ -34,16 +34,18 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
 import numba
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.pools import died, stop
 from acc_fusion.core.validation import check_choice
+from acc_fusion.sweep import EXECUTORS
 from acc_fusion.sweep.chunks import run_chunk
 from acc_fusion.sweep.points import Chunk
 
-EXECUTORS = ("local", "ray")
 #: Seconds allowed for a TCP connection to a Ray cluster's address.
 RAY_CONNECT_TIMEOUT = 5.0
 #: Seconds allowed for ``ray.init`` to connect to a cluster (in a probe process).
@@ -82,11 +84,18 @@ def _is_sumo(chunk: Chunk) -> bool:
 
 
 def local_map(
-    fn: Callable[[T], R], items: list[T], workers: int = 2, fresh: Callable[[T], bool] = bool
+    fn: Callable[[T], R],
+    items: list[T],
+    workers: int = 2,
+    fresh: Callable[[T], bool] = bool,
+    label: Callable[[T], str] = str,
 ) -> Iterator[tuple[T, R]]:
     """``fn`` over ``items`` in a pool of ``workers`` spawned processes, yielding ``(item,
     result)`` as each finishes; the items for which ``fresh`` is true get a process each
-    (libsumo: one simulation per process)."""
+    (libsumo: one simulation per process).  A worker's error is re-raised as it is, and one
+    that died without raising is one sentence naming ``label(item)``
+    (:func:`~acc_fusion.core.pools.died`); after an error, or when the consumer stops early,
+    the pools are stopped at once (:func:`~acc_fusion.core.pools.stop`)."""
     if not items:
         return
     ctx = multiprocessing.get_context("spawn")
@@ -107,10 +116,18 @@ def local_map(
         while futures:
             done, _ = wait(futures, return_when=FIRST_COMPLETED)
             for f in done:
-                yield futures.pop(f), f.result()
-    finally:
+                item = futures.pop(f)
+                try:
+                    result = f.result()
+                except BrokenProcessPool:
+                    raise died(label(item)) from None
+                yield item, result
+    except BaseException:  # an error, or the consumer stopped early: stop at once
         for pool in pools:
-            pool.shutdown(wait=False, cancel_futures=True)
+            stop(pool)
+        raise
+    for pool in pools:
+        pool.shutdown(wait=True)
 
 
 def check_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT) -> None:
@@ -194,8 +211,8 @@ def ray_map(
             ray.shutdown()
 
 
-#: A map over items in worker processes: ``(fn, items, fresh)`` to ``(item, result)`` pairs as
-#: they finish (:func:`local_map`, :func:`ray_map`).
+#: A map over items in worker processes: ``(fn, items, fresh, label)`` to ``(item, result)``
+#: pairs as they finish (:func:`local_map`, :func:`ray_map`).
 Mapper = Callable[..., Iterator[tuple]]
 
 
@@ -209,16 +226,16 @@ def make_map(name: str = "local", workers: int = 2, address: str | None = None) 
     if name == "local":
         if address:
             raise ConfigError("--address needs --executor ray")
-        return lambda fn, items, fresh=bool: local_map(fn, items, workers, fresh)
+        return lambda fn, items, fresh=bool, label=str: local_map(fn, items, workers, fresh, label)
     if importlib.util.find_spec("ray") is None:
         raise ConfigError("the ray executor needs Ray: pip install 'acc_fusion[ray]'")
     if address:
         check_address(address)
-    return lambda fn, items, fresh=bool: ray_map(fn, items, workers, address, fresh)
+    return lambda fn, items, fresh=bool, label=str: ray_map(fn, items, workers, address, fresh)
 
 
 def make_executor(name: str = "local", workers: int = 2, address: str | None = None) -> Executor:
     """The executor ``name`` (one of :data:`EXECUTORS`): the chunks mapped by
     :func:`make_map`, each SUMO chunk in a process of its own."""
     mapper = make_map(name, workers, address)
-    return lambda chunks: mapper(run_chunk, chunks, _is_sumo)
+    return lambda chunks: mapper(run_chunk, chunks, _is_sumo, lambda c: f"sweep chunk {c.id}")

@@ -44,7 +44,8 @@ from acc_fusion.sweep.store import SweepStore
 @dataclass
 class SweepResult:
     """What :func:`run_sweep` did: the rows (a pandas DataFrame), the chunks it ran now and
-    those it found done, the wall time [s] of the runs and the files written."""
+    those it found done, the wall time [s] of the runs, the files written and the damaged
+    files of an earlier run it recovered (:attr:`SweepStore.damaged`)."""
 
     config: SweepConfig
     rows: Any
@@ -53,6 +54,7 @@ class SweepResult:
     ran_runs: int
     seconds: float
     files: list[Path] = field(default_factory=list)
+    damaged: list[str] = field(default_factory=list)
 
     @property
     def runs_per_s(self) -> float:
@@ -77,7 +79,7 @@ def run_sweep(
     run = make_executor(executor, workers, address)
     store = SweepStore(out, config)
     chunks = config.chunks()
-    done = store.done()
+    done = store.done(chunks)
     todo = [c for c in chunks if c.id not in done]
     total = config.total_runs
     from tqdm.auto import tqdm
@@ -100,7 +102,14 @@ def run_sweep(
     seconds = time.perf_counter() - t0
     rows = store.consolidate(c.id for c in chunks).to_pandas()
     result = SweepResult(
-        config, rows, len(todo), len(chunks) - len(todo), ran, seconds, [store.out / "runs.parquet"]
+        config,
+        rows,
+        len(todo),
+        len(chunks) - len(todo),
+        ran,
+        seconds,
+        [store.out / "runs.parquet"],
+        store.damaged,
     )
     result.files += write_tables(config, rows, store.out)
     if report:

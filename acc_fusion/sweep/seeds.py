@@ -161,7 +161,8 @@ def seeds_study(
     if done and todo:
         print(f"resuming: {len(done)} runs of {len(done) + len(todo)} already done")
     bar = tqdm(total=len(todo), desc="SUMO runs", disable=None if progress else True)
-    for (seed, name, _), run in mapper(_task, todo, lambda item: True):
+    runs_of = mapper(_task, todo, lambda item: True, lambda item: f"seed {item[0]} ({item[1]})")
+    for (seed, name, _), run in runs_of:
         done[(seed, name)] = run
         if runs:
             runs.save(seed, name, run)

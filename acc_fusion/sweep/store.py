@@ -42,6 +42,15 @@ def _rows_part(config: dict) -> dict:
     return {k: v for k, v in config.items() if k != "report"}
 
 
+def _json(path: Path) -> dict | None:
+    """The JSON object in ``path``, or ``None`` if it holds none (cut short, not JSON)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
 def _parquet_bytes(table) -> bytes:
     import pyarrow.parquet as pq
 
@@ -54,7 +63,11 @@ class SweepStore:
     """The output folder of a sweep: ``sweep.json``, ``parts/`` and the consolidated results.
 
     Opening a folder whose ``sweep.json`` holds another sweep is refused (only the
-    ``report`` settings may change between runs into the same folder).
+    ``report`` settings may change between runs into the same folder).  Damaged state is
+    recovered, losing nothing intact: a ``sweep.json`` that is not valid JSON is rewritten,
+    and a part that cannot be read, or does not hold the runs of its chunk in this sweep's
+    columns, is removed so that its chunk runs again; :attr:`damaged` says what was, one
+    entry per file.
     """
 
     def __init__(self, out: str | Path, config: SweepConfig) -> None:
@@ -66,12 +79,11 @@ class SweepStore:
         meta = self.out / "sweep.json"
         want = config.as_dict()
         columns = self.schema.names
-        if meta.exists():
-            try:
-                have = json.loads(meta.read_text())
-            except (OSError, ValueError):
-                have = None
-            have = have if isinstance(have, dict) else {}
+        self.damaged: list[str] = []
+        have = _json(meta) if meta.exists() else None
+        if meta.exists() and have is None:
+            self.damaged.append("sweep.json (not valid JSON: rewritten)")
+        elif have is not None:
             config = have.get("config")
             if not isinstance(config, dict) or _rows_part(config) != _rows_part(want):
                 raise ConfigError(
@@ -87,9 +99,40 @@ class SweepStore:
         for stale in self.parts.glob(".*.tmp"):  # a write cut short by a kill
             stale.unlink(missing_ok=True)
 
-    def done(self) -> set[str]:
-        """Ids of the chunks whose part is written."""
-        return {p.stem for p in self.parts.glob("*.parquet")}
+    def done(self, chunks: Iterable[Chunk]) -> set[str]:
+        """Ids of the ``chunks`` whose part is written and intact; a damaged part is removed
+        (its chunk runs again) and noted in :attr:`damaged`."""
+        wanted = {c.id: c for c in chunks}
+        done = set()
+        for path in sorted(self.parts.glob("*.parquet")):
+            chunk = wanted.get(path.stem)
+            if chunk is None:
+                continue
+            problem = self._check_part(path, chunk)
+            if problem:
+                path.unlink()
+                self.damaged.append(f"parts/{path.name} ({problem}: recomputed)")
+            else:
+                done.add(chunk.id)
+        return done
+
+    def _check_part(self, path: Path, chunk: Chunk) -> str:
+        """What is wrong with the part of ``chunk`` at ``path``, or ``""``."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        try:
+            table = pq.read_table(path, columns=["chunk_id", "run"])
+            schema = pq.read_schema(path)
+        except (OSError, pa.ArrowException):
+            return "unreadable"
+        if schema.names != self.schema.names:
+            return "other columns"
+        runs = set(table.column("run").to_pylist())
+        ids = set(table.column("chunk_id").to_pylist())
+        if ids != {chunk.id} or runs != set(range(chunk.first, chunk.first + chunk.n_runs)):
+            return "not the runs of its chunk"
+        return ""
 
     def write_part(self, chunk: Chunk, columns: dict) -> None:
         """Store a finished chunk's rows atomically (the unit of completion)."""

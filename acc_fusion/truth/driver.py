@@ -72,10 +72,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, unit_key
 from acc_fusion.core.units import TIME_TOL, G
-from acc_fusion.core.validation import check_array, check_choice, check_interval, check_range
+from acc_fusion.core.validation import check_choice, check_interval, check_range
 from acc_fusion.truth.distraction import DistractionConfig, EpisodeDraws, calm
 from acc_fusion.truth.frame import TruthFrame
 

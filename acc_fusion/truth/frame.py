@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.motion import ca_transition
-from acc_fusion.core.validation import check_array, unchecked
+from acc_fusion.core.validation import unchecked
 
 
 @dataclass(frozen=True)

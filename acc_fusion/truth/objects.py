@@ -19,8 +19,9 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
-from acc_fusion.core.validation import check_array, unchecked
+from acc_fusion.core.validation import unchecked
 from acc_fusion.truth.frame import TruthFrame
 
 

@@ -4,9 +4,8 @@ Pipeline stage 1 (**truth source** → sensors → ...).  :class:`ScenarioSource
 motion of an ego (subject) vehicle and up to two other vehicles for each of N independent runs
 and yields one :class:`~acc_fusion.truth.frame.TruthFrame` per step.  It is closed-loop capable:
 :meth:`ScenarioSource.advance` takes the brake request of each run's driver (see
-:mod:`acc_fusion.truth.driver`).
-
-The manoeuvres and their sources: :mod:`acc_fusion.truth.manoeuvres`.
+:mod:`acc_fusion.truth.driver`).  The manoeuvres and their sources:
+:mod:`acc_fusion.truth.manoeuvres`.
 
 State (per run, shape ``(N,)``; :meth:`ScenarioSource.state`)
     Ego front-bumper position, speed, acceleration; the leader's rear-bumper position, speed,
@@ -82,10 +81,11 @@ from typing import Any
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
-from acc_fusion.core.validation import check_array, check_choice, check_range
+from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.manoeuvre_params import IDM, OVERLAP_OFFSET, SLOTS, VEHICLE_LENGTH
 from acc_fusion.truth.manoeuvres import SCENARIOS, _merge, _ramp, _ranges_table

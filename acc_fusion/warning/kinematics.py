@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from acc_fusion.core.validation import check_array
+from acc_fusion.core.arrays import check_array
 
 
 def _arrays(gap, v_ego, v_lead, a_lead) -> tuple[np.ndarray, ...]:

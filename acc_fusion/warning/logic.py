@@ -42,12 +42,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.levels import CAUTION, IMMINENT, NONE
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.units import KMH
-from acc_fusion.core.validation import check_array, check_choice, check_mask, check_range
+from acc_fusion.core.validation import check_choice, check_mask, check_range
 from acc_fusion.warning.safety import SAFETY_MODELS, model_constants
 from acc_fusion.warning.safety_kernels import distances_unchecked
 

@@ -48,8 +48,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.core.validation import check_array, check_choice
+from acc_fusion.core.validation import check_choice
 from acc_fusion.warning.safety_kernels import distances_unchecked
 from acc_fusion.warning.safety_params import (
     BerkeleyParams,

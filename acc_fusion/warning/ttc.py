@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
-from acc_fusion.core.validation import check_array
 from acc_fusion.warning.safety_kernels import _maximum
 
 

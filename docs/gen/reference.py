@@ -14,7 +14,7 @@ from pathlib import Path
 
 import mkdocs_gen_files
 
-from acc_fusion.cli.main import COMMANDS, build_parser
+from acc_fusion.cli.main import COMMANDS, build_parser, command_module
 from acc_fusion.core.schema import fields
 from acc_fusion.sim.closed_loop import SimConfig
 
@@ -43,11 +43,10 @@ parser = build_parser()
 subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
 summary = ["* [All commands](index.md)\n"]
 index = ["# Commands\n\n", "| command | what it does |\n|---|---|\n"]
-for command in COMMANDS:
-    name = command.__name__.rsplit(".", 1)[-1]
+for name in COMMANDS:
     sub = subparsers.choices[name]
     sub.formatter_class = lambda prog: argparse.HelpFormatter(prog, width=100)
-    intro = (command.__doc__ or "").strip()
+    intro = (command_module(name).__doc__ or "").strip()
     helps = [sub.format_help()]
     for action in sub._actions:
         if isinstance(action, argparse._SubParsersAction):

@@ -101,10 +101,11 @@ from typing import ClassVar
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.threads import blocks
-from acc_fusion.core.validation import check_array, check_range
+from acc_fusion.core.validation import check_range
 from acc_fusion.fusion.tracking.kernels import DIM, track_step, track_step_parallel
 from acc_fusion.sensors.detections import Detections
 

@@ -90,8 +90,8 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
-from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.highway.config import DEFAULT_DURATION, HighwayConfig, HighwayError, make_env
 from acc_fusion.truth.highway.lanes import LaneRows

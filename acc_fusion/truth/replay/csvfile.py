@@ -21,6 +21,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pcsv
 
+from acc_fusion.core.paths import existing_file
 from acc_fusion.truth.replay.rows import ReplayError
 
 #: Bytes of the file per batch (pyarrow's block size).
@@ -28,11 +29,9 @@ BLOCK_SIZE = 1 << 24
 
 
 def existing(path: str | Path, what: str) -> Path:
-    """``path`` as a :class:`Path`, or a :class:`ReplayError` naming ``what`` is missing."""
-    p = Path(path)
-    if not p.is_file():
-        raise ReplayError(f"{what} {str(p)!r} does not exist")
-    return p
+    """``path`` as a :class:`Path`, or a :class:`ReplayError` naming ``what`` if it is missing
+    or not a regular file."""
+    return existing_file(path, what, ReplayError)
 
 
 def header(path: Path) -> list[str]:

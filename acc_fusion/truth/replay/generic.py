@@ -24,7 +24,7 @@ from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.ngsim import FOOT
 from acc_fusion.truth.replay.recording import Recording
-from acc_fusion.truth.replay.rows import Rows
+from acc_fusion.truth.replay.rows import Rows, whole
 
 #: Units of a mapped file's lengths (speeds and accelerations follow): metres or feet.
 UNITS = {"m": 1.0, "ft": FOOT}
@@ -44,7 +44,8 @@ class CsvMapping:
         position: position along the driving direction (arc length along the lane).
         position_ref: where on the vehicle ``position`` is: front, centre or rear.
         lateral: lateral position across the road (optional with ``lane``).
-        lane: lane id (a whole number; optional with ``lateral``).
+        lane: lane id (a whole number; optional with ``lateral``; ``lane`` when neither is
+            given).
         lane_width: lane width [m] to find the lane from ``lateral`` (default 3.5).
         speed, accel: speed [m/s] and acceleration [m/s²] along the driving direction.
         length: vehicle length.
@@ -61,7 +62,7 @@ class CsvMapping:
     position: str = "s"
     position_ref: str = "front"
     lateral: str | None = None
-    lane: str | None = "lane"
+    lane: str | None = None
     lane_width: float = 3.5
     speed: str = "v"
     accel: str = "a"
@@ -76,7 +77,7 @@ class CsvMapping:
         if self.frame is None and self.time is None:
             object.__setattr__(self, "time", "t")
         if self.lane is None and self.lateral is None:
-            raise ConfigError("the CSV mapping needs a lane or a lateral column")
+            object.__setattr__(self, "lane", "lane")
         check_range("frame_rate", self.frame_rate, 0.0, 1e4, lo_open=True)
         check_range("lane_width", self.lane_width, 0.0, 100.0, lo_open=True)
         check_choice("position_ref", self.position_ref, tuple(POSITION_REFS))
@@ -110,6 +111,9 @@ class CsvRecording(Recording):
     def __init__(self, path: str | Path, mapping: CsvMapping) -> None:
         self.path = csvfile.existing(path, "trajectory file")
         self.mapping = mapping
+        self.sources = {"frame": mapping.time or mapping.frame, "vid": mapping.id,
+                        "s": mapping.position, "speed": mapping.speed, "accel": mapping.accel,
+                        "length": mapping.length}  # fmt: skip
         self.label = self.path.stem
         self.dt = 1.0 / mapping.frame_rate
         wanted = mapping.numbers()
@@ -120,7 +124,7 @@ class CsvRecording(Recording):
         clock = batch["clock"]
         if self.mapping.time is not None:
             clock = clock * self.mapping.frame_rate
-        return np.rint(clock).astype(np.int64)
+        return whole(np.rint(clock))
 
     def _rows(self, b: dict[str, np.ndarray], frame: np.ndarray) -> Rows:
         m = self.mapping
@@ -128,21 +132,21 @@ class CsvRecording(Recording):
         length = unit * b["length"]
         lateral = unit * b["lateral"] if "lateral" in b else np.full(frame.size, np.nan)
         if "lane" in b:
-            lane = b["lane"].astype(np.int64)
+            lane = whole(b["lane"])
         else:
-            lane = np.floor(lateral / m.lane_width + 0.5).astype(np.int64)
+            lane = whole(np.floor(lateral / m.lane_width + 0.5))
         n = frame.size
         leader = None
         if "leader" in b:
-            leader = b["leader"].astype(np.int64)
+            leader = whole(b["leader"])
             leader = np.where(leader > 0, leader, -1)
         return Rows(
             frame=frame,
-            vid=b["id"].astype(np.int64),
+            vid=whole(b["id"]),
             s=unit * b["position"] + POSITION_REFS[m.position_ref] * length,
             lat=lateral,
             lane=lane,
-            group=b["group"].astype(np.int64) if "group" in b else np.zeros(n, np.int64),
+            group=whole(b["group"]) if "group" in b else np.zeros(n, np.int64),
             speed=unit * b["speed"],
             accel=unit * b["accel"],
             length=length,

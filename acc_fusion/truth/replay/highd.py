@@ -33,9 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.paths import path_kind
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.recording import Recording
-from acc_fusion.truth.replay.rows import ReplayError, Rows
+from acc_fusion.truth.replay.rows import ReplayError, Rows, whole
 
 #: The columns of ``NN_tracks.csv`` the replay reads.
 TRACK_COLUMNS = (
@@ -57,6 +58,8 @@ class HighDRecording(Recording):
     """highD recording ``number`` in the folder ``folder``."""
 
     headway_basis = "gap"
+    sources = {"frame": "frame", "vid": "id", "s": "x", "speed": "xVelocity",
+               "accel": "xAcceleration", "length": "width"}  # fmt: skip
 
     def __init__(self, folder: str | Path, number: int) -> None:
         folder = Path(folder)
@@ -74,7 +77,7 @@ class HighDRecording(Recording):
         for batch in csvfile.stream(tracks_meta, names):
             for k in META_COLUMNS:
                 meta[k].append(batch[k])
-        ids, dirs, first, count = (np.concatenate(meta[k]).astype(np.int64) for k in META_COLUMNS)
+        ids, dirs, first, count = (whole(np.concatenate(meta[k])) for k in META_COLUMNS)
         bad = ~np.isin(dirs, (1, 2))
         if bad.any():
             line = int(np.flatnonzero(bad)[0]) + 2
@@ -97,10 +100,10 @@ class HighDRecording(Recording):
         return np.cumsum(diff)[:-1]
 
     def _frames(self, batch: dict[str, np.ndarray]) -> np.ndarray:
-        return batch["frame"].astype(np.int64)
+        return whole(batch["frame"])
 
     def _rows(self, b: dict[str, np.ndarray], frame: np.ndarray) -> Rows:
-        vid = b["id"].astype(np.int64)
+        vid = whole(b["id"])
         k = np.minimum(np.searchsorted(self._meta_id, vid), self._meta_id.size - 1)
         unknown = self._meta_id[k] != vid
         if unknown.any():
@@ -115,13 +118,13 @@ class HighDRecording(Recording):
             np.searchsorted(self._markings[1], centre, side="right"),
             np.searchsorted(self._markings[2], centre, side="right"),
         )
-        leader = b["precedingId"].astype(np.int64)
+        leader = whole(b["precedingId"])
         return Rows(
             frame=frame,
             vid=vid,
             s=np.where(left, -b["x"], b["x"] + b["width"]),
             lat=centre,
-            lane=lane.astype(np.int64),
+            lane=whole(lane),
             group=self._meta_dir[k],
             speed=sign * b["xVelocity"],
             accel=sign * b["xAcceleration"],
@@ -174,7 +177,9 @@ def highd_recordings(path: str | Path, numbers: list[int] | None = None) -> list
             raise ReplayError(f"{str(p)!r} is not a highD NN_tracks.csv file")
         p, numbers = p.parent, numbers or [int(stem)]
     if not p.is_dir():
-        raise ReplayError(f"highD folder {str(p)!r} does not exist")
+        kind = path_kind(p)
+        what = "does not exist" if kind == "missing" else f"is {kind}, not a folder"
+        raise ReplayError(f"highD folder {str(p)!r} {what}")
     if not numbers:
         found = sorted(p.glob("[0-9][0-9]_tracks.csv"))
         if not found:

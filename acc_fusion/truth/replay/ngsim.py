@@ -18,9 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.paths import existing_file
 from acc_fusion.truth.replay import csvfile
 from acc_fusion.truth.replay.recording import Recording
-from acc_fusion.truth.replay.rows import ReplayError, Rows
+from acc_fusion.truth.replay.rows import ReplayError, Rows, whole
 
 #: One foot [m].
 FOOT = 0.3048
@@ -41,6 +42,8 @@ class NgsimRecording(Recording):
 
     headway_basis = "spacing"
     frame_columns = ("Frame_ID",)
+    sources = {"frame": "Frame_ID", "vid": "Vehicle_ID", "s": "Local_Y", "speed": "v_Vel",
+               "accel": "v_Acc", "length": "v_Length"}  # fmt: skip
 
     def __init__(self, path: str | Path, location: str | None = None) -> None:
         self.path = csvfile.existing(path, "NGSIM file")
@@ -52,18 +55,18 @@ class NgsimRecording(Recording):
             self.where = ("Location", location)
 
     def _frames(self, batch: dict[str, np.ndarray]) -> np.ndarray:
-        return batch["Frame_ID"].astype(np.int64)
+        return whole(batch["Frame_ID"])
 
     def _rows(self, b: dict[str, np.ndarray], frame: np.ndarray) -> Rows:
-        leader = b["Preceding"].astype(np.int64)
+        leader = whole(b["Preceding"])
         has = leader > 0
         thw = b["Time_Headway"]
         return Rows(
             frame=frame,
-            vid=b["Vehicle_ID"].astype(np.int64),
+            vid=whole(b["Vehicle_ID"]),
             s=FOOT * b["Local_Y"],
             lat=FOOT * b["Local_X"],
-            lane=b["Lane_ID"].astype(np.int64),
+            lane=whole(b["Lane_ID"]),
             group=np.zeros(frame.size, dtype=np.int64),
             speed=FOOT * b["v_Vel"],
             accel=FOOT * b["v_Acc"],
@@ -80,8 +83,7 @@ class NgsimRecording(Recording):
 def ngsim_recordings(path: str | Path, locations: list[str] | None = None) -> list[NgsimRecording]:
     """The recordings of the NGSIM CSV ``path``: one per name of ``locations`` (its
     ``Location`` column), or the whole file."""
-    if not Path(path).is_file():
-        raise ReplayError(f"NGSIM file {str(path)!r} does not exist")
+    existing_file(path, "NGSIM file", ReplayError)
     if not locations:
         return [NgsimRecording(path)]
     return [NgsimRecording(path, loc) for loc in locations]

@@ -17,7 +17,7 @@ import numpy as np
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.truth.replay import csvfile
-from acc_fusion.truth.replay.rows import Rows
+from acc_fusion.truth.replay.rows import BOUNDS, ReplayError, Rows
 
 #: Rows of a window by default (about 0.2 GB of arrays).
 MAX_ROWS = 2_000_000
@@ -38,6 +38,14 @@ class Recording(ABC):
     #: ``"spacing"`` (front to front, the gap plus the leader's length).
     headway_basis: str = "gap"
     path: Path
+    #: The file's column behind each field of :data:`~acc_fusion.truth.replay.rows.BOUNDS`,
+    #: and behind the frame index (``"frame"``).
+    sources: dict[str, str]
+    #: A row outside :data:`~acc_fusion.truth.replay.rows.BOUNDS`: ``"refuse"`` it (a
+    #: :class:`ReplayError` naming the file, row and column) or ``"drop"`` it, counted in
+    #: :attr:`dropped`.
+    bad_rows: str = "refuse"
+    dropped: int = 0
     numbers: dict[str, str]
     strings: dict[str, str] | None = None
     where: tuple[str, str] | None = None
@@ -76,6 +84,12 @@ class Recording(ABC):
             c = np.bincount(frame, minlength=counts.size)
             c[: counts.size] += counts
             counts = c
+        at = np.flatnonzero(counts)
+        if at.size == 1 and counts[at[0]] > 1:
+            raise ReplayError(
+                f"{str(self.path)!r}: all {counts[at[0]]} rows are at one time (frame {at[0]}); "
+                f"column {self.sources['frame']!r} must advance with the recording"
+            )
         return counts
 
     def _cut(self, max_rows: int) -> list[tuple[int, int, int]]:
@@ -98,10 +112,38 @@ class Recording(ABC):
     def rows(self, f0: int, f1: int) -> Rows | None:
         """The rows of frames ``[f0, f1)`` (``None`` if there are none)."""
         parts = []
+        read = 0  # rows of the file before this batch
         for batch in self._stream():
             frame = self._frames(batch)
             keep = (frame >= f0) & (frame < f1)
             if keep.any():
                 part = {k: v[keep] for k, v in batch.items()}
-                parts.append(self._rows(part, frame[keep]))
+                rows = self._rows(part, frame[keep])
+                parts.append(self._physical(rows, read + np.flatnonzero(keep)))
+            read += frame.size
         return Rows.concat(parts) if parts else None
+
+    def _physical(self, rows: Rows, index: np.ndarray) -> Rows:
+        """``rows`` (at ``index`` among the file's rows) within
+        :data:`~acc_fusion.truth.replay.rows.BOUNDS`: a row outside them is refused (one
+        :class:`ReplayError` naming the file, the row and the column) or, with
+        :attr:`bad_rows` ``"drop"``, dropped and counted in :attr:`dropped`."""
+        bad = {
+            name: ~((lo <= getattr(rows, name)) & (getattr(rows, name) <= hi))
+            for name, (_, lo, hi) in BOUNDS.items()
+        }
+        out = np.logical_or.reduce(list(bad.values()))
+        if not out.any():
+            return rows
+        if self.bad_rows == "drop":
+            self.dropped += int(out.sum())
+            return rows.take(~out)
+        first = int(np.argmax(out))
+        name = next(n for n, b in bad.items() if b[first])
+        words, lo, hi = BOUNDS[name]
+        of = f" of {self.where[1]}" if self.where else ""
+        raise ReplayError(
+            f"{str(self.path)!r}, row {int(index[first]) + 1}{of}, column "
+            f"{self.sources[name]!r}: {words} {getattr(rows, name)[first]:g} is outside "
+            f"[{lo:g}, {hi:g}] (--bad-rows drop skips such rows)"
+        )

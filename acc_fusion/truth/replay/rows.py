@@ -30,6 +30,29 @@ from acc_fusion.core.errors import InputError
 REFERENCE_COLUMNS = ("headway", "thw", "ttc")
 
 
+#: The physical bounds of a recorded row, in SI units: the field of :class:`Rows`, its words in a
+#: message, and its least and greatest value.  Positions within 1 000 km of the file's
+#: origin; speeds from a slow reverse to 360 km/h; accelerations within 3 g (beyond any road
+#: vehicle's brakes or engine); lengths from a bicycle to the longest road train; ids whole
+#: numbers >= 0 (the ids' NaN, where a reader keeps it, fails too).
+BOUNDS = {
+    "vid": ("vehicle id", 0.0, 2.0**53),
+    "s": ("position [m]", -1e6, 1e6),
+    "speed": ("speed [m/s]", -10.0, 100.0),
+    "accel": ("acceleration [m/s²]", -30.0, 30.0),
+    "length": ("length [m]", 0.5, 60.0),
+}
+
+
+def whole(x: np.ndarray) -> np.ndarray:
+    """A file's numbers ``x`` as whole numbers (int64), rounded towards zero; NaN, infinities
+    and magnitudes of 2**53 or more (no whole number a float holds exactly) become -1 ("none"
+    for a lane or a leader; refused by :data:`BOUNDS` for an id, by the readers for a frame)
+    without numpy's warning for an invalid cast."""
+    x = np.asarray(x, dtype=float)
+    return np.where(np.abs(x) < 2.0**53, x, -1.0).astype(np.int64)
+
+
 class ReplayError(InputError):
     """A recording that cannot be replayed: a missing file or column, a malformed row."""
 

@@ -43,15 +43,13 @@ from tqdm.auto import tqdm
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_choice
 from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.replay import BAD_ROWS, FORMATS
 from acc_fusion.truth.replay.crosscheck import CrossCheck
 from acc_fusion.truth.replay.generic import CsvMapping, CsvRecording
 from acc_fusion.truth.replay.highd import highd_recordings
 from acc_fusion.truth.replay.ngsim import ngsim_recordings
 from acc_fusion.truth.replay.pairs import Pairs, build_pairs
 from acc_fusion.truth.replay.recording import MAX_ROWS, Recording
-
-#: The formats a recording can have.
-FORMATS = ("highd", "ngsim", "csv")
 
 
 @dataclass(frozen=True)
@@ -71,6 +69,10 @@ class ReplayConfig:
             file names them.
         slots: pairs replayed at once (the batch width N).
         max_rows: rows of a window (what is in memory at once).
+        bad_rows: a row outside the physical bounds
+            (:data:`~acc_fusion.truth.replay.rows.BOUNDS`): ``"refuse"`` the recording (one
+            error naming the file, row and column) or ``"drop"`` the row, counted in the
+            exposure table's notes.
     """
 
     format: str
@@ -80,9 +82,11 @@ class ReplayConfig:
     recompute_leaders: bool = False
     slots: int = 2048
     max_rows: int = MAX_ROWS
+    bad_rows: str = "refuse"
 
     def __post_init__(self) -> None:
         check_choice("format", self.format, FORMATS)
+        check_choice("bad_rows", self.bad_rows, BAD_ROWS)
         if not 1 <= self.slots <= 1_000_000:
             raise ConfigError(f"slots must be in [1, 1000000], got {self.slots}")
         if self.max_rows < 1:
@@ -102,6 +106,8 @@ class ReplayConfig:
             recs = list(ngsim_recordings(self.path, list(self.recordings)))
         else:
             recs = [CsvRecording(self.path, CsvMapping.load(self.mapping))]
+        for r in recs:
+            r.bad_rows = self.bad_rows
         rates = {round(1.0 / r.dt, 6) for r in recs}
         if len(rates) > 1:
             raise ConfigError(
@@ -123,6 +129,7 @@ class RecordingStats:
         pairs: distinct follower→leader pairs.
         pair_steps: rows with a leader.
         duplicates: rows dropped for repeating a (frame, vehicle).
+        dropped: rows dropped for a value outside the physical bounds (``bad_rows="drop"``).
         agree, either: rows whose file and recomputed leaders agree, of those with a leader
             in either (only with a leader column).
         crosscheck: the cross-check and headway distribution.
@@ -136,6 +143,7 @@ class RecordingStats:
     pairs: int = 0
     pair_steps: int = 0
     duplicates: int = 0
+    dropped: int = 0
     agree: int = 0
     either: int = 0
     crosscheck: CrossCheck = field(default_factory=CrossCheck)
@@ -277,6 +285,7 @@ class ReplaySource(SlotSource):
                 named = pairs.either and not self.config.recompute_leaders
                 stats.leaders = "file" if named else "recomputed"
                 self._account(stats, pairs, rec.dt)
+                stats.dropped = rec.dropped
             self._pairs = Pairs.concat([p for _, p in ready] + [_idle_row()])
             idle = len(self._pairs) - 1
             self._index, self._begins = pack(self._pairs.start[:idle], self.n_pairs)

@@ -77,9 +77,9 @@ from typing import Any
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.memory import release_free_heap
-from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError
 from acc_fusion.truth.sumo.frames import FrameMaker

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.paths import existing_file
 from acc_fusion.core.validation import check_choice, check_range
 
 #: Collision actions allowed for :attr:`SumoConfig.collision_action` (SUMO's
@@ -150,12 +151,7 @@ def check_sumocfg(path: str | os.PathLike, extra_args: Sequence[str] = ()) -> Pa
     ``extra_args`` gives ``-n``/``--net-file``), and every ``net-file``, ``route-files`` and
     ``additional-files`` entry exists.  Returns the absolute path.
     """
-    cfg = Path(path).expanduser()
-    if not cfg.is_file():
-        what = "is a directory" if cfg.is_dir() else "does not exist"
-        raise ConfigError(
-            f"SUMO configuration {str(cfg)!r} {what}; give the path of a .sumocfg file"
-        )
+    cfg = existing_file(Path(path).expanduser(), "SUMO configuration")
     try:
         root = ET.parse(cfg).getroot()
     except (ET.ParseError, OSError) as exc:

@@ -60,7 +60,9 @@ def sumo_command(
 
 @contextmanager
 def captured_stderr(sink: list[str]):
-    """Capture what SUMO writes to the process's stderr (fd 2) into ``sink``, then echo it."""
+    """Capture what SUMO writes to the process's stderr (fd 2) into ``sink``, then echo it,
+    unless the block failed: its error then carries SUMO's ``Error:`` lines
+    (:func:`sumo_message`), in one line."""
     try:
         sys.stderr.flush()
         saved = os.dup(2)
@@ -69,15 +71,19 @@ def captured_stderr(sink: list[str]):
         return
     with tempfile.TemporaryFile(mode="w+b") as tmp:
         os.dup2(tmp.fileno(), 2)
+        failed = False
         try:
             yield
+        except BaseException:
+            failed = True
+            raise
         finally:
             os.dup2(saved, 2)
             os.close(saved)
             tmp.seek(0)
             text = tmp.read().decode("utf-8", "replace")
             sink.append(text)
-            if text:
+            if text and not failed:
                 sys.stderr.write(text)
 
 

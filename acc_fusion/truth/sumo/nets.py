@@ -7,6 +7,7 @@ from importlib.resources import as_file, files
 from pathlib import Path
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.paths import existing_file
 
 
 def bundled_nets() -> dict[str, Path]:
@@ -31,7 +32,4 @@ def resolve_sumocfg(net: str | None = None, sumocfg: str | None = None) -> Path:
         if net not in nets:
             raise ConfigError(f"unknown network {net!r}; bundled networks: {', '.join(nets)}")
         return nets[net]
-    path = Path(sumocfg)
-    if not path.is_file():
-        raise ConfigError(f"SUMO config file {str(path)!r} does not exist")
-    return path
+    return existing_file(sumocfg, "SUMO config file")

@@ -84,9 +84,9 @@ from pathlib import Path
 
 import numpy as np
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.memory import release_free_heap
-from acc_fusion.core.validation import check_array
 from acc_fusion.truth.frame import SlotSource, TruthFrame
 from acc_fusion.truth.sumo import launch
 from acc_fusion.truth.sumo.config import UNBOUNDED_END, SumoConfig, SumoError, check_sumocfg

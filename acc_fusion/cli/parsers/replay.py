@@ -1,0 +1,65 @@
+"""The arguments of ``acc-fusion replay`` (its work: :mod:`acc_fusion.cli.replay`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from acc_fusion.cli.arguments import (
+    add_config_arguments,
+    output_folder,
+    positive_int,
+)
+from acc_fusion.truth.replay import BAD_ROWS, FORMATS
+
+
+def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
+    """Add the ``replay`` command."""
+    p = subparsers.add_parser(
+        "replay",
+        help=summary,
+        description="Replay recorded vehicle trajectories as truth: every vehicle is an ego, "
+        "its preceding vehicle the target (from the data set's leader column, or recomputed "
+        "from lanes and positions). Open loop only: a recorded driver cannot react. Prints "
+        "per method (radar, infrared, centralized, federated) the alerts per 100 km by class "
+        "with 95%% intervals, the exposure per recording and the cross-check of the replay's "
+        "gap, time headway and TTC against the data set's own columns. No data set ships "
+        "with acc_fusion: see the replay guide for where to obtain highD and NGSIM.",
+    )
+    p.add_argument("--format", required=True, choices=FORMATS, help="the recording's format")
+    p.add_argument(
+        "--path",
+        required=True,
+        help="highD: the folder of NN_tracks.csv, NN_tracksMeta.csv, NN_recordingMeta.csv; "
+        "ngsim, csv: the trajectory file",
+    )
+    p.add_argument(
+        "--recording",
+        action="append",
+        default=[],
+        metavar="N",
+        help="highD: a recording number; ngsim: a Location value (repeatable; default: all)",
+    )
+    p.add_argument("--mapping", metavar="FILE", help="csv: TOML/YAML file of the column mapping")
+    p.add_argument(
+        "--recompute-leaders",
+        action="store_true",
+        help="recompute leaders from lanes and positions even where the file names them",
+    )
+    p.add_argument(
+        "--slots", type=positive_int, default=2048, help="pairs replayed at once (default 2048)"
+    )
+    p.add_argument(
+        "--bad-rows",
+        choices=BAD_ROWS,
+        default="refuse",
+        help="a row outside the physical bounds (position, speed, acceleration, length, id): "
+        "refuse the recording, naming its row and column (default), or drop it and count it",
+    )
+    add_config_arguments(p)
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        type=output_folder,
+        help="also write CSV, JSON and the headway PNG here",
+    )
+    return p
