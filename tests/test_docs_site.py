@@ -18,6 +18,10 @@ from urllib.parse import unquote, urlsplit
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+# The path of the site's root on its server, from mkdocs.yml's site_url.
+_BASE = urlsplit(
+    re.search(r"^site_url:\s*(\S+)", (ROOT / "mkdocs.yml").read_text(), re.M).group(1)
+).path
 
 # A path into the repository as the pages name them: `acc_fusion/fusion/fdi.py`, `scripts/x.py`.
 _REPO_PATH = re.compile(
@@ -129,8 +133,8 @@ def test_every_internal_link_reaches_its_page_and_anchor(site, pages):
             url = urlsplit(href)
             if url.scheme or url.netloc or href.startswith("mailto:"):
                 continue
-            if url.path.startswith("/"):  # absolute: from the site's root (the 404 page)
-                target = (site / unquote(url.path).lstrip("/")).resolve()
+            if url.path.startswith("/"):  # absolute, under the site_url (the 404 page)
+                target = (site / unquote(url.path).removeprefix(_BASE)).resolve()
             else:
                 target = (path.parent / unquote(url.path)).resolve() if url.path else path
             if target.is_dir():

@@ -39,6 +39,9 @@ with mkdocs_gen_files.open("reference/SUMMARY.md", "w") as f:
     f.writelines(nav.build_literate_nav())
 
 # ---------------------------------------------------------------- commands
+# Help wrapped at the characters a code block of the site's column shows without scrolling
+# (Material's content column beside the navigation and the table of contents).
+HELP_WIDTH = 76
 parser = build_parser()
 subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
 summary = ["* [All commands](index.md)\n"]
@@ -46,7 +49,7 @@ index = ["# Commands\n\n", "| command | what it does |\n|---|---|\n"]
 for command in COMMANDS:
     name = command.__name__.rsplit(".", 1)[-1]
     sub = subparsers.choices[name]
-    sub.formatter_class = lambda prog: argparse.HelpFormatter(prog, width=100)
+    sub.formatter_class = lambda prog: argparse.HelpFormatter(prog, width=HELP_WIDTH)
     intro = (command.__doc__ or "").strip()
     helps = [sub.format_help()]
     for action in sub._actions:
