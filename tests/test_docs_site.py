@@ -31,6 +31,8 @@ _REPO_PATH = re.compile(
 _GYM_ID = r"acc_fusion/\w+-v\d+"  # acc_fusion/CollisionWarning-v0 is no path
 # TeX a reader should never see: a control word, or the \( \[ delimiters.
 _RAW_TEX = re.compile(r"\\(?:[a-zA-Z]{2,}|[()\[\]])")
+# The docstrings' reST a reader should never see: a role, a simple table's rule.
+_RAW_REST = re.compile(r":(?:class|func|meth|mod|attr|data|exc|math):`|={4,} +={4,}")
 
 
 class _Page(HTMLParser):
@@ -106,12 +108,12 @@ def _where(site: Path, path: Path) -> str:
     return path.relative_to(site).as_posix()
 
 
-def test_every_equation_is_rendered(site, pages):
+def test_every_equation_and_docstring_is_rendered(site, pages):
     problems = []
     for path, page in pages.items():
         prose = " ".join(page.text)
-        for m in _RAW_TEX.finditer(prose):
-            problems.append(f"{_where(site, path)}: raw TeX {prose[m.start() : m.end() + 40]!r}")
+        for m in (*_RAW_TEX.finditer(prose), *_RAW_REST.finditer(prose)):
+            problems.append(f"{_where(site, path)}: raw {prose[m.start() : m.end() + 40]!r}")
         problems += [
             f"{_where(site, path)}: an empty equation" for t in page.maths if not t.strip()
         ]

@@ -61,6 +61,45 @@ def _math_blocks(text: str) -> str:
     return "\n".join(out)
 
 
+_RULE = re.compile(r"^\s*=+(?: +=+)+\s*$")
+
+
+def _simple_tables(text: str) -> str:
+    """reST simple tables (columns under runs of ``=``, a rule above and below, and one
+    under the header if any) as Markdown tables; a line whose first column is empty goes on
+    with the row above."""
+    lines, out, i = text.split("\n"), [], 0
+    while i < len(lines):
+        if not _RULE.match(lines[i]):
+            out.append(lines[i])
+            i += 1
+            continue
+        end = i
+        while end < len(lines) and lines[end].strip():
+            end += 1
+        block = lines[i:end]
+        rules = [k for k, line in enumerate(block) if _RULE.match(line)]
+        starts = [m.start() for m in re.finditer(r"=+", block[0])]
+        bounds = list(zip(starts, [*starts[1:], None], strict=True))
+        rows, header = [], 0
+        for k, line in enumerate(block):
+            if k in rules:
+                header = len(rows) if k == rules[1] and len(rules) > 2 else header
+                continue
+            cells = [line[a:b].strip().replace("|", "\\|") for a, b in bounds]
+            if rows and not cells[0]:
+                rows[-1] = [
+                    f"{old} {new}".strip() for old, new in zip(rows[-1], cells, strict=True)
+                ]
+            else:
+                rows.append(cells)
+        head = rows[:header] or [[""] * len(bounds)]
+        table = [*head[:1], ["---"] * len(bounds), *rows[header:]]
+        out += ["", *("| " + " | ".join(row) + " |" for row in table), ""]
+        i = end
+    return "\n".join(out)
+
+
 def _doctests(text: str) -> str:
     """Fence doctest examples (``>>>`` lines and their output) as ``pycon`` code blocks."""
     out, lines, i = [], text.split("\n"), 0
@@ -97,7 +136,7 @@ def _flatten_definitions(text: str) -> str:
 def render(text: str, module: bool = False) -> str:
     """The Markdown form of a docstring written with reST roles (``module``: a module's
     docstring, whose indented blocks are reST definition lists)."""
-    parts = re.split(r"(^\s*```.*?^\s*```)", _doctests(text), flags=re.S | re.M)
+    parts = re.split(r"(^\s*```.*?^\s*```)", _doctests(_simple_tables(text)), flags=re.S | re.M)
     return "".join(
         p
         if i % 2
