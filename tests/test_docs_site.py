@@ -2,7 +2,8 @@
 
 Every equation must have become MathML (no raw TeX left for the reader, no empty equation, no
 matrix whose rows lost their cells), every link inside the site must reach a page and the
-anchor it names, and every repository path a page names must exist in the repository.
+anchor it names, nothing a page shows may come from the network (the site works offline),
+and every repository path a page names must exist in the repository.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ class _Page(HTMLParser):
         super().__init__(convert_charrefs=True)
         self.ids: set[str] = set()
         self.links: list[str] = []
+        self.loads: list[str] = []  # what the browser fetches to show the page
         self.text: list[str] = []  # prose, outside code and equations
         self.code: list[str] = []  # code spans and blocks
         self.maths: list[str] = []  # the text of each <math>
@@ -57,6 +59,10 @@ class _Page(HTMLParser):
             self.ids.add(a["id"])
         if tag == "a" and a.get("href"):
             self.links.append(a["href"])
+        if tag in ("script", "img", "iframe") and a.get("src"):
+            self.loads.append(a["src"])
+        if tag == "link" and a.get("rel") not in ("canonical", "alternate") and a.get("href"):
+            self.loads.append(a["href"])
         if tag in self._SKIP:
             self._skip += 1
         if tag == "math":
@@ -148,6 +154,16 @@ def test_every_internal_link_reaches_its_page_and_anchor(site, pages):
             elif url.fragment and target in pages and url.fragment not in pages[target].ids:
                 dead.append(f"{_where(site, path)}: {href} has no anchor #{url.fragment}")
     assert not dead, "\n".join(dead)
+
+
+def test_nothing_is_loaded_from_the_network(site, pages):
+    remote = [
+        f"{_where(site, path)}: {url}"
+        for path, page in pages.items()
+        for url in page.loads
+        if urlsplit(url).scheme or url.startswith("//")
+    ]
+    assert not remote, "\n".join(sorted(set(remote)))
 
 
 def test_every_repository_path_named_exists(site, pages):
