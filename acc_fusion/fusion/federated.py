@@ -30,7 +30,35 @@ from acc_fusion.fusion.kernels import (
 
 class FederatedFilter(Estimator):
     """Carlson's federated Kalman filter (the equations: :mod:`acc_fusion.fusion.estimators`);
-    ``plain`` = no sharing."""
+    ``plain`` = no sharing.
+
+    Usually made by :func:`acc_fusion.fusion.estimators.make_estimator` with
+    ``FusionConfig(method="federated")`` (or ``"plain"``); :meth:`step` advances every pair by
+    one step and returns the fused :class:`~acc_fusion.fusion.base.Estimate`.
+
+    Args:
+        sensors: the sensors' names, in the order of the measurements given to :meth:`step`.
+        n_pairs: N, the number of follower→leader pairs filtered at once.
+        config: the fusion settings (:class:`~acc_fusion.fusion.config.FusionConfig`): the
+            sharing factors ``beta``, the ``reset`` mode, the fusion period, the local
+            filters' model and the fault detector ``fdi`` (``None``: none).
+        plain: kong2011's plain fusion formula instead: independent local filters, no
+            information sharing, no reset, no fault detection.
+        specs: the sensors' specifications (:class:`~acc_fusion.sensors.spec.SensorSpec`),
+            for their range limits (a track is confirmed by every sensor that should see it)
+            and the range noise evaluated at the prediction; ``None``: neither.
+
+    Attributes:
+        locals: the local filters, one bank per sensor, arrays ``(S, N, 3)`` and
+            ``(S, N, 3, 3)``.
+        master: the master filter, the fused estimate.
+        beta: the information-sharing factors ``(S, N)``, summing to 1 over the sensors.
+        fdi: the fault detector (:class:`~acc_fusion.fusion.fdi.WindowedChiSquare`), or
+            ``None``.
+
+    Raises:
+        ConfigError: explicit ``beta`` values whose number is not the number of sensors.
+    """
 
     _PAIR_AXES = {
         **Estimator._PAIR_AXES, "beta": 1, "_seen": 1, "_needed": 1, "_reported_at": 1,
@@ -100,6 +128,8 @@ class FederatedFilter(Estimator):
         return (self.beta, self._beta0, self._seen, self._needed, self.fdi is not None, *fdi)
 
     def forget(self, pairs):
+        """Drop the tracks of ``pairs`` (a boolean mask ``(N,)``), e.g. when a slot gets a new
+        vehicle; their fault detector's windows restart too."""
         super().forget(pairs)
         pairs = np.asarray(pairs, dtype=bool)
         self._reported_at[:, pairs] = -np.inf  # a new vehicle's track
