@@ -25,7 +25,8 @@ import argparse
 import sys
 import textwrap
 
-from acc_fusion.cli.common import add_scenario_arguments, scenario_config
+from acc_fusion.cli.arguments import add_scenario_arguments
+from acc_fusion.cli.common import scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
 from acc_fusion.core.table import Table

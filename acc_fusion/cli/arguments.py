@@ -170,15 +170,20 @@ def add_executor_arguments(p: argparse.ArgumentParser, what: str = "") -> None:
     )
 
 
-def add_scenario_arguments(p: argparse.ArgumentParser, warmup: float, before: str) -> None:
+def add_scenario_arguments(
+    p: argparse.ArgumentParser, warmup: float | None, before: str
+) -> argparse._MutuallyExclusiveGroup:
     """The arguments of a script that measures a SUMO scenario's own traffic: ``--net``
     (default motorway) or ``--sumocfg``, ``--end``, ``--warmup`` (default ``warmup``, the
-    seconds ``before`` measuring) and ``--seed``."""
+    seconds ``before`` measuring) and ``--seed``.  Returns the group of ``--net`` and
+    ``--sumocfg``, for a script that offers other sources beside them."""
     where = p.add_mutually_exclusive_group()
     where.add_argument("--net", default="motorway", help="bundled network (default motorway)")
     where.add_argument("--sumocfg", metavar="PATH", help="any SUMO configuration file")
     p.add_argument("--end", type=float, default=300.0, help="simulated seconds (default 300)")
+    default = "by source" if warmup is None else f"{warmup:g}"
     p.add_argument(
-        "--warmup", type=float, default=warmup, help=f"seconds before {before} ({warmup:g})"
+        "--warmup", type=float, default=warmup, help=f"seconds before {before} ({default})"
     )
     p.add_argument("--seed", type=int, default=0, help="SUMO seed (default 0)")
+    return where

@@ -149,12 +149,17 @@ def _failure(exc: BaseException) -> tuple:
 def _child(fd: int, ring_fd: int, ring_size: int) -> None:
     """Entry point of the child process: serve the config it receives on socket ``fd``,
     writing the frames' arrays into the ring of ``ring_size`` bytes shared as ``ring_fd``.
-    Ctrl-C is the parent's to handle: the child ends when the parent closes the socket."""
+    Ctrl-C is the parent's to handle: the child ends when the parent closes the socket, and
+    quietly when the parent is gone (a pool that stopped its workers after another's error):
+    there is nobody left to tell."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     conn = Connection(fd)
     ring = _FrameRing(ring_fd, ring_size)
     os.close(ring_fd)  # the mapping stays
-    _serve(*conn.recv(), conn, ring)
+    try:
+        _serve(*conn.recv(), conn, ring)
+    except (BrokenPipeError, ConnectionResetError, EOFError):
+        return
 
 
 def _serve(
