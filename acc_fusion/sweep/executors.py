@@ -30,8 +30,6 @@ import os
 import socket
 import subprocess
 import sys
-import threading
-import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -40,7 +38,7 @@ from typing import TypeVar
 import numba
 
 from acc_fusion.core.errors import AccFusionError, ConfigError
-from acc_fusion.core.pools import died, stop
+from acc_fusion.core.pools import died, stop, watch_parent
 from acc_fusion.core.validation import check_choice
 from acc_fusion.sweep import EXECUTORS
 from acc_fusion.sweep.chunks import run_chunk
@@ -59,16 +57,11 @@ Executor = Callable[[list["Chunk"]], Iterator[tuple["Chunk", dict]]]
 
 
 def _watch_parent(parent: int) -> None:
-    """Worker initializer: exit when the sweep process is gone (even after SIGKILL); one
-    numba thread (the pool's processes already share the cores)."""
+    """Worker initializer: exit when the sweep process is gone (even after SIGKILL,
+    :func:`~acc_fusion.core.pools.watch_parent`); one numba thread (the pool's processes
+    already share the cores)."""
     numba.set_num_threads(1)
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(0.5)
-        os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
+    watch_parent(parent)
 
 
 def run_alone(fn: Callable[[T], R], item: T) -> R:
