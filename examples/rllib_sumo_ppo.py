@@ -67,8 +67,12 @@ def main(argv: list[str] | None = None) -> None:
             },
         )
         .framework("torch")
-        # Each env runner is a Ray actor: a process of its own, with one SUMO simulation.
-        .env_runners(num_env_runners=args.runners, num_envs_per_env_runner=1)
+        # Each env runner is a Ray actor: a process of its own, with one SUMO simulation.  Its
+        # first sample starts SUMO and may compile the pipeline (numba's cache is cold on a
+        # fresh install): minutes on a loaded machine, beyond RLlib's default 60 s wait.
+        .env_runners(
+            num_env_runners=args.runners, num_envs_per_env_runner=1, sample_timeout_s=900.0
+        )  # fmt: skip
         .training(
             train_batch_size_per_learner=args.batch,
             minibatch_size=min(128, args.batch),
@@ -84,10 +88,10 @@ def main(argv: list[str] | None = None) -> None:
     try:
         algo = config.build_algo()
         for i in range(1, args.iterations + 1):
-            runners = algo.train()["env_runners"]
+            runners = algo.train().get("env_runners", {})  # empty if nothing was sampled
             mean = runners.get("episode_return_mean", math.nan)
             print(
-                f"iteration {i}: {int(runners['num_env_steps_sampled_lifetime'])} steps "
+                f"iteration {i}: {int(runners.get('num_env_steps_sampled_lifetime', 0))} steps "
                 f"sampled, {int(runners.get('num_episodes', 0))} episodes done, "
                 f"mean return {mean:.2f}"
             )

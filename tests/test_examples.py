@@ -4,7 +4,9 @@ result.  Measured on 2 shared cores: scripted 7 s, SUMO 8-23 s, SB3 30 s, sweep 
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -17,15 +19,26 @@ pytestmark = pytest.mark.xdist_group("ray")
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def run_example(name: str, *args: str, timeout: float = 600) -> str:
-    proc = subprocess.run(
+def run_example(name: str, *args: str, timeout: float = 900) -> str:
+    """The example's output; it runs in a session of its own, so that on a timeout it is
+    killed with every process it started (Ray's among them, which would otherwise outlive it
+    holding its pipes)."""
+    proc = subprocess.Popen(
         [sys.executable, str(EXAMPLES / name), *args],
-        capture_output=True,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=timeout,
+        start_new_session=True,
     )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return proc.stdout
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"{name} ran longer than {timeout:g} s; its last output:\n{err[-3000:]}")
+    assert proc.returncode == 0, err[-3000:]
+    return out
 
 
 def needs(*modules: str) -> None:
