@@ -31,6 +31,7 @@ from acc_fusion.truth.sumo.objects import (  # noqa: E402
 )
 from acc_fusion.truth.sumo.roadside import (  # noqa: E402
     ROADSIDE_ID_BASE,
+    LaneTable,
     RoadsideConfig,
     _lane_geometry,
     curvature_at,
@@ -276,6 +277,45 @@ def test_roadside_placement_is_reproducible_from_its_seed(run):
     assert np.all(np.isin(placed.y[east & (placed.kind == ObjectKind.GUARDRAIL)], -13.0))
     bridges = place_roadside(lanes, RoadsideConfig(bridge_spacing=1000.0))
     assert bridges.count(ObjectKind.BRIDGE) == 10
+
+
+def _table(lanes: dict[str, list[np.ndarray]]) -> LaneTable:
+    """A :class:`LaneTable` of edges given as their lanes' polylines (3.5 m wide, 36 m/s)."""
+    shapes = [shape for edge in lanes.values() for shape in edge]
+    geometry = [_lane_geometry(shape) for shape in shapes]
+    counts = [len(edge) for edge in lanes.values()]
+    sizes = [len(shape) for shape in shapes]
+    return LaneTable(
+        edge_code={e: i for i, e in enumerate(lanes)}, edge_ids=tuple(lanes),
+        first_lane=np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64),
+        n_lanes=np.array(counts, np.int64), internal=np.zeros(len(lanes), bool),
+        width=np.full(len(shapes), 3.5), speed=np.full(len(shapes), 36.0),
+        start=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+        vx=np.concatenate([sh[:, 0] for sh in shapes]),
+        vy=np.concatenate([sh[:, 1] for sh in shapes]),
+        vs=np.concatenate([g[0] for g in geometry]), vh=np.concatenate([g[1] for g in geometry]),
+    )  # fmt: skip
+
+
+def test_no_guardrail_post_or_parked_car_stands_in_a_diverging_ramps_lane():
+    """A 1 km two-lane carriageway with an exit ramp leaving beside its right lane at 400 m
+    and swinging 60 m out over 300 m: the shoulder objects along the ramp's first 30 m,
+    where it runs over the shoulder, are left out; the others stay, the posts 4.25 m right of
+    the right lane's centre."""
+    x = np.linspace(0.0, 1000.0, 201)
+    main = [np.column_stack([x, np.zeros_like(x)]), np.column_stack([x, np.full_like(x, 3.5)])]
+    t = np.linspace(0.0, 1.0, 61)
+    ramp = np.column_stack([400.0 + 300.0 * t, -3.5 - 60.0 * (3 * t**2 - 2 * t**3)])
+    lanes = _table({"main": main, "exit": [ramp]})
+    placed = place_roadside(lanes, RoadsideConfig(parked_per_km=20.0))
+    shoulder = np.isin(placed.kind, [ObjectKind.GUARDRAIL, ObjectKind.PARKED])
+    posts = placed.kind == ObjectKind.GUARDRAIL
+    assert np.allclose(placed.y[posts], -4.25)
+    crossing = (placed.x > 400.0) & (placed.x < 430.0)
+    assert shoulder.sum() > 40 and not (shoulder & crossing).any()
+    assert (shoulder & (placed.x > 450.0)).sum() > 20
+    everywhere = place_roadside(_table({"main": main}), RoadsideConfig(parked_per_km=20.0))
+    assert everywhere.count(ObjectKind.GUARDRAIL) > placed.count(ObjectKind.GUARDRAIL)
 
 
 def test_lane_curvature_of_an_arc_is_its_inverse_radius():

@@ -45,6 +45,12 @@ Roadside objects (every value SI; the kinds of :class:`~acc_fusion.truth.objects
       ``shoulder_width`` 2.5 m: the German RAA hard shoulder (2.50 m on RQ 31, 3.00 m on
       RQ 36; FGSV, *Richtlinien für die Anlage von Autobahnen*, 2008).
 
+    A guardrail post or parked vehicle whose footprint would reach onto a lane of another edge
+    (:data:`SHOULDER_CLEARANCE` from its edge) is not placed: where a ramp diverges or
+    merges, or a junction's lanes pass, the shoulder gives way to that lane, as on a real
+    road (guardrails and hard shoulders end at a diverge; RAA 2008, interchange design), and
+    a vehicle taking the ramp must not meet a car parked in its lane.
+
     Radar cross-section and thermal contrast of each kind: :data:`KIND_SIGNATURE` (order of
     magnitude; assumption).  Every object gets a stable id :data:`ROADSIDE_ID_BASE` ``+ k``,
     above every vehicle id of a run.  The placement depends on the network and ``seed`` only.
@@ -65,6 +71,10 @@ from acc_fusion.truth.objects import ObjectKind
 
 #: Length of the window the lane curvature is averaged over [m] (module docstring).
 CURVATURE_WINDOW = 20.0
+
+#: Free space [m] kept between a shoulder object's footprint and the edge of another edge's
+#: lane (assumption: a lane needs its width plus some room to be driven).
+SHOULDER_CLEARANCE = 0.5
 
 #: Object id of the first roadside object (vehicle ids count from 0 and stay far below it).
 ROADSIDE_ID_BASE = 1 << 40
@@ -282,6 +292,7 @@ def place_roadside(lanes: LaneTable, config: RoadsideConfig) -> Roadside:
         raise ConfigError(f"roadside must be a RoadsideConfig, got {type(config).__name__}")
     rng = np.random.default_rng(config.seed)
     cols: dict[str, list[np.ndarray]] = {k: [] for k in Roadside.__dataclass_fields__}
+    edges: list[np.ndarray] = []
 
     def add(kind: ObjectKind, x, y, heading, width: np.ndarray | float, elevation: float) -> None:
         n = len(x)
@@ -295,6 +306,7 @@ def place_roadside(lanes: LaneTable, config: RoadsideConfig) -> Roadside:
             ("thermal_contrast", np.full(n, thermal)),
         ):  # fmt: skip
             cols[name].append(np.asarray(value, dtype=_dtype(name)))
+        edges.append(np.full(n, row, dtype=np.int64))  # the edge of the loop below
 
     for row in range(len(lanes.edge_ids)):
         first, n = int(lanes.first_lane[row]), int(lanes.n_lanes[row])
@@ -334,8 +346,39 @@ def place_roadside(lanes: LaneTable, config: RoadsideConfig) -> Roadside:
         for name, parts in cols.items()
         if name != "object_id"
     }
+    edge = np.concatenate(edges) if edges else np.zeros(0, np.int64)
+    lane_edge = np.repeat(np.arange(len(lanes.edge_ids)), lanes.n_lanes)
+    shoulder = np.isin(out["kind"], [int(ObjectKind.GUARDRAIL), int(ObjectKind.PARKED)])
+    keep = ~shoulder | _clear(out["x"], out["y"], out["width"] / 2 + SHOULDER_CLEARANCE, edge,
+                             lane_edge, lanes.width, lanes.start, lanes.vx, lanes.vy)  # fmt: skip
+    out = {name: a[keep] for name, a in out.items()}
     ids = ROADSIDE_ID_BASE + np.arange(len(out["kind"]), dtype=np.int64)
     return Roadside(object_id=ids, **out)
+
+
+@njit(cache=True)
+def _clear(x, y, reach, edge, lane_edge, width, start, vx, vy):  # pragma: no cover - compiled
+    """Whether each object ``(K,)`` at ``(x, y)`` stays ``reach`` [m] clear of the edge of
+    every lane of another edge than its own ``edge`` (lanes by ``lane_edge``, ``width``
+    and their polylines ``start``, ``vx``, ``vy``)."""
+    out = np.ones(x.shape[0], dtype=np.bool_)
+    for k in range(x.shape[0]):
+        for g in range(width.shape[0]):
+            if lane_edge[g] == edge[k]:
+                continue
+            limit = reach[k] + 0.5 * width[g]
+            for i in range(start[g], start[g + 1] - 1):
+                ax, ay = vx[i + 1] - vx[i], vy[i + 1] - vy[i]
+                seg = ax * ax + ay * ay
+                u = 0.0 if seg == 0.0 else ((x[k] - vx[i]) * ax + (y[k] - vy[i]) * ay) / seg
+                u = min(max(u, 0.0), 1.0)
+                dx, dy = x[k] - vx[i] - u * ax, y[k] - vy[i] - u * ay
+                if dx * dx + dy * dy < limit * limit:
+                    out[k] = False
+                    break
+            if not out[k]:
+                break
+    return out
 
 
 def _dtype(name: str) -> type:
