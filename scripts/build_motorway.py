@@ -65,8 +65,9 @@ EAST_EXIT, EAST_ENTRY = 900.0, 3700.0
 WEST_EXIT, WEST_ENTRY = 4300.0, 1150.0
 #: The XML schema attributes of SUMO's input files (followed by the schema's URL).
 XSD = 'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xsi:noNamespaceSchemaLocation'
-#: Chord angle of the arcs' polylines [deg] (0.02 % short of the arc's length).
-CHORD_DEG = 2.0
+#: Chord angle of the arcs' polylines [deg]: a vertex every 4-6 m, so that a vehicle, which SUMO
+#: turns at the vertices, yaws smoothly through a curve.
+CHORD_DEG = 0.25
 
 
 def centreline(step_deg: float = CHORD_DEG) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -127,7 +128,7 @@ def _shape(points: list) -> str:
 def _ramp(start: tuple, heading: float, side: float, length: float, outward: float) -> list:
     """A ramp's points from ``start`` (on the carriageway's edge) along ``heading``: a cubic
     swing of ``outward`` metres to the ``side`` (-1 right) over ``length`` metres."""
-    t = np.linspace(0.0, 1.0, 9)
+    t = np.linspace(0.0, 1.0, 61)  # a vertex every 5 m: the vehicles yaw smoothly
     along = length * t
     across = side * outward * (3 * t**2 - 2 * t**3)
     c, s = math.cos(heading), math.sin(heading)
