@@ -118,16 +118,23 @@ def test_a_close_cut_in_is_warned_on_while_it_crosses_into_the_lane_by_each_sens
         assert summary.by_cause["sensing_false"]["cut_in_out"] >= 0.8 * summary.sensing_false
 
 
-def test_before_a_curve_the_adjacent_lane_car_fools_every_method():
-    s = _world("curve_adjacent", ("radar", "federated"))
-    for summary in s.values():  # 2 of the 10 runs (with the stopping-distance rule, 3 or more)
-        assert _false(summary, "adjacent") >= 2
+def test_before_a_curve_the_adjacent_lane_car_fools_a_yaw_rate_path_not_the_fused_one():
+    """A path from the yaw rate runs straight on into the right lane's car in the curve; the
+    path that the car's heading and the guardrail bend follows the curve."""
+    by_yaw = _world("curve_adjacent", ("radar", "federated"), path="yaw_rate")
+    fused = _world("curve_adjacent", ("radar", "federated"))
+    for m in ("radar", "federated"):  # 2 of the 10 runs (with the stopping-distance rule, 3)
+        assert _false(by_yaw[m], "adjacent") >= 2
+        assert _false(fused[m], "adjacent") == 0
 
 
-def test_a_car_parked_before_a_curve_fools_the_camera_confirmed_fusion():
-    s = _world("parked_curve", ("radar", "federated"))
-    assert _false(s["federated"], "stationary") >= 5
-    assert s["radar"].warnings == 0  # the radar alone ignores unconfirmed stationary objects
+def test_a_car_parked_before_a_curve_fools_the_camera_confirmed_fusion_less_on_a_fused_path():
+    by_yaw = _world("parked_curve", ("radar", "federated"), runs=20, path="yaw_rate")
+    fused = _world("parked_curve", ("radar", "federated"), runs=20)
+    assert _false(by_yaw["federated"], "stationary") == 20
+    assert _false(fused["federated"], "stationary") <= 10
+    for s in (by_yaw, fused):  # the radar alone ignores unconfirmed stationary objects
+        assert s["radar"].warnings == 0
 
 
 def test_warnings_during_a_sensor_fault_are_counted_under_fault_for_the_methods_using_it():

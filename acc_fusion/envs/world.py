@@ -234,11 +234,12 @@ class CollisionWarningWorldEnv(gym.Env):
 
     0-15 describe the selected object as the 1-D environment describes its lead (isolated: by
     the fault detection; age: seconds since the sensor's last measurement of the object).
-    16: :math:`y - \kappa x^2 / 2` of the selection (:mod:`acc_fusion.warning.selection`), ``x``
-    and ``y`` the object's position in the ego frame, :math:`\kappa` entry 22 (from the
-    yaw rate by default).  18: ego speed + range-rate, the ground speed the selection judges
-    stationary objects by.  19: the camera's vehicle classifier confirms the object (both
-    sensors track it when the radar does too).  20: the objects in the corridor that the
+    16: :math:`y - y_p(x)` of the selection (:mod:`acc_fusion.warning.selection`), ``x``
+    and ``y`` the object's position in the ego frame, :math:`y_p` the predicted path, whose
+    curvature at the ego is entry 22 (:mod:`acc_fusion.warning.path`).  18: ego speed +
+    range-rate, the ground speed the selection judges stationary objects by.  19: the
+    camera's vehicle classifier confirms the object (both sensors track it when the radar
+    does too).  20: the objects in the corridor that the
     stationary policy admits, the selected one included.  23: seconds since the selected object
     last changed, appeared or was lost (0 at the change).
 

@@ -183,7 +183,10 @@ class WorldPerception(PairState):
         }
         self.pool = PairPool(pairs, pairs)  # object slot e·F + f → the estimators' pair
         self._pool_extent = Extent(pairs, quantum=POOL_QUANTUM)
-        self.selectors = {m: InPathSelector(world.selection, n, self.slots) for m in config.methods}
+        self.selectors = {
+            m: InPathSelector(world.selection, n, self.slots, world.yaw_rate_std)
+            for m in config.methods
+        }
         self.oracle = WarningLogic(config.warning, n, config.dt)
         self._t_prev: float | None = None
 
@@ -268,7 +271,7 @@ class WorldPerception(PairState):
         for m, estimator in self.estimators.items():
             est = estimator.step(measurements, target, u, copy=False)
             estimates[m], truth_id[m] = self._select(
-                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active
+                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active, dt
             )
             cause = alert_cause(frame, truth_id[m], lead.leader_id)
             if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
@@ -276,19 +279,24 @@ class WorldPerception(PairState):
             causes[m] = cause
         return WorldPerceived(lead, [], v_ego, estimates, oracle, ttc, relevant, causes, truth_id)
 
-    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active):
+    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active, dt):
         """The selected object of each active ego under ``method``: its estimate (an
         :class:`~acc_fusion.fusion.base.Estimate` over the egos, ``valid`` where one is
-        selected) and its true id (``est`` over the pool's pairs)."""
+        selected) and its true id (``est`` over the pool's pairs); ``dt`` [s] since the last
+        step."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
         ids, x, ground = np.empty((n, f), np.int64), np.empty((n, f)), np.empty((n, f))
         confirmed = np.empty((n, f), dtype=bool)
         _slot_view(pair, est.x, est.valid, fused.valid, fused.object_id, fused.track, v_ego,
                    method in _CLASSIFYING, ids, x, ground, confirmed)  # fmt: skip
+        lateral, cov = fused.lateral, fused.lateral_cov
+        seen = (fused.object_id, *_track_view(fused.valid, fused.track, tracks[0].state,
+                                              tracks[1].state))  # fmt: skip
         sel = self.selectors[method].step(
-            ids, x, fused.lateral[..., 0], ground, confirmed, v_ego, yaw, curvature
-        )
+            ids, x, lateral[..., 0], ground, confirmed, v_ego, yaw, curvature,
+            lateral[..., 1], cov[..., 0, 0], cov[..., 1, 1], dt, seen,
+        )  # fmt: skip
         has = np.empty(n, dtype=bool)
         x_sel, p_sel = np.empty((n, *est.x.shape[1:])), np.empty((n, *est.p.shape[1:]))
         nis, isolated = np.empty((n, est.nis.shape[1])), np.empty((n, est.nis.shape[1]), bool)
@@ -321,6 +329,23 @@ def _slot_view(
             x[e, k] = x_est[q, 0]
             ground[e, k] = v_ego[e] + x_est[q, 1]
             confirmed[e, k] = classifying and track[e, k, 1] >= 0
+
+
+@njit(cache=True)
+def _track_view(valid, track, radar, camera):  # pragma: no cover - compiled
+    """The range and relative longitudinal velocity ``(E, F)`` of each fused object, from its
+    radar track if it has one, else its camera track (zeros in an empty slot): what the
+    path prediction reads of every object, whichever method selects."""
+    n, f = valid.shape
+    x, vx = np.zeros((n, f)), np.zeros((n, f))
+    for e in range(n):
+        for k in range(f):
+            if not valid[e, k]:
+                continue
+            r, c = track[e, k, 0], track[e, k, 1]
+            state = radar[e, r] if r >= 0 else camera[e, max(c, 0)]
+            x[e, k], vx[e, k] = state[0], state[1]
+    return x, vx
 
 
 @njit(cache=True)
