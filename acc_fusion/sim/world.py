@@ -268,10 +268,13 @@ class WorldPerception(PairState):
         )
         faulty = {s.spec.name: s.faulty(frame.t) for s in self.sensors}
         estimates, truth_id, causes = {}, {}, {}
+        # what every method's path prediction reads of the objects: their tracks
+        seen = (fused.object_id, *_track_view(fused.valid, fused.track, tracks[0].state,
+                                              tracks[1].state))  # fmt: skip
         for m, estimator in self.estimators.items():
             est = estimator.step(measurements, target, u, copy=False)
             estimates[m], truth_id[m] = self._select(
-                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active, dt
+                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active, dt, seen
             )
             cause = alert_cause(frame, truth_id[m], lead.leader_id)
             if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
@@ -279,11 +282,12 @@ class WorldPerception(PairState):
             causes[m] = cause
         return WorldPerceived(lead, [], v_ego, estimates, oracle, ttc, relevant, causes, truth_id)
 
-    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active, dt):
+    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active, dt, seen):
         """The selected object of each active ego under ``method``: its estimate (an
         :class:`~acc_fusion.fusion.base.Estimate` over the egos, ``valid`` where one is
         selected) and its true id (``est`` over the pool's pairs); ``dt`` [s] since the last
-        step."""
+        step, ``seen`` the objects as the path prediction reads them
+        (:meth:`InPathSelector.step`)."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
         ids, x, ground = np.empty((n, f), np.int64), np.empty((n, f)), np.empty((n, f))
@@ -291,8 +295,6 @@ class WorldPerception(PairState):
         _slot_view(pair, est.x, est.valid, fused.valid, fused.object_id, fused.track, v_ego,
                    method in _CLASSIFYING, ids, x, ground, confirmed)  # fmt: skip
         lateral, cov = fused.lateral, fused.lateral_cov
-        seen = (fused.object_id, *_track_view(fused.valid, fused.track, tracks[0].state,
-                                              tracks[1].state))  # fmt: skip
         sel = self.selectors[method].step(
             ids, x, lateral[..., 0], ground, confirmed, v_ego, yaw, curvature,
             lateral[..., 1], cov[..., 0, 0], cov[..., 1, 1], dt, seen,

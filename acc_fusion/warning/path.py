@@ -158,18 +158,21 @@ def road_step(
     [rad/s], ``gyro_var`` its noise variance, ``map_curvature`` [1/m] (used when
     ``prm[MAP_VAR] > 0``); ``prm`` the parameters by :data:`HEADING_VAR` ... :data:`GATE`."""
     ds = max(speed, 0.0) * dt
-    # Predict: F = [[1, -v T, 0], [0, 1, Δs], [0, 0, 1]], u = [ψ̇ T, 0, 0].
-    f = np.eye(3)
-    f[0, 1], f[1, 2] = -speed * dt, ds
-    theta[0] += yaw_rate * dt - speed * dt * theta[1]
-    theta[1] += ds * theta[2]
-    fp = f @ cov @ f.T
-    for i in range(3):
-        for j in range(3):
-            cov[i, j] = fp[i, j]
-    cov[0, 0] += gyro_var * dt * dt
-    cov[1, 1] += prm[C0_WALK] * ds
-    cov[2, 2] += prm[C1_WALK] * ds
+    # Predict: F = [[1, -a, 0], [0, 1, b], [0, 0, 1]] with a = v T, b = Δs; u = [ψ̇ T, 0, 0].
+    a, b = speed * dt, ds
+    theta[0] += yaw_rate * dt - a * theta[1]
+    theta[1] += b * theta[2]
+    # cov <- F cov Fᵀ, element by element (no temporaries on the per-ego hot path)
+    p00, p01, p02 = cov[0, 0], cov[0, 1], cov[0, 2]
+    p11, p12, p22 = cov[1, 1], cov[1, 2], cov[2, 2]
+    q01, q11, q12 = p01 - a * p11, p11 + b * p12, p12 + b * p22  # rows of F cov
+    q02 = p02 - a * p12
+    cov[0, 0] = p00 - a * p01 - a * q01 + gyro_var * dt * dt
+    cov[0, 1] = cov[1, 0] = q01 + b * q02
+    cov[0, 2] = cov[2, 0] = q02
+    cov[1, 1] = q11 + b * q12 + prm[C0_WALK] * ds
+    cov[1, 2] = cov[2, 1] = q12
+    cov[2, 2] = p22 + prm[C1_WALK] * ds
     if speed >= prm[MIN_SPEED]:
         r = gyro_var / (speed * speed) + prm[STEER_VAR]
         _update(theta, cov, 0.0, 1.0, 0.0, yaw_rate / speed, r, 0.0)

@@ -38,9 +38,10 @@ Corridor (``half_width``)
     With the ``"fused"`` path the offset is uncertain (the path's covariance and the track's
     lateral variance): an object is in path when its in-path probability
     :math:`P_\text{in}` (:func:`acc_fusion.warning.path.in_path_probability`) reaches
-    ``enter_probability``, and the object selected at the previous step stays in path while
-    it keeps ``keep_probability`` (hysteresis: the target does not flicker between two
-    objects at the corridor's edge; both thresholds are assumptions).
+    ``enter_probability``; with ``keep_probability`` below it, the object selected at the
+    previous step stays in path down to that probability (hysteresis, off by default: it
+    kept a cutting-out lead selected too long, see :mod:`acc_fusion.warning.path`'s theory
+    page; both thresholds are assumptions).
 
 Stationary objects (``stationary``)
     A track whose estimated ground speed is below ``stationary_speed`` is stationary.
@@ -93,7 +94,7 @@ class SelectionConfig:
         half_width: half the in-path corridor [m]; 1.75 (half a 3.5 m lane; assumption).
         enter_probability, keep_probability: in-path probability at which an object becomes
             selectable, and at which the object selected at the last step stays so (``"fused"``
-            path); 0.5 and 0.2 (assumptions).
+            path); 0.5 and 0.5, no hysteresis (assumptions).
         heading_std: std of a vehicle's heading about its lane's tangent, as its track gives it
             [rad]; 0.03 (lane keeping, 0.3 m/s of lateral speed at 30 m/s, is 0.01; a
             constant-velocity track's heading lags its turning vehicle's in a curve; on the
@@ -321,15 +322,14 @@ class InPathSelector(PairState):
 @njit(cache=True)
 def _select(
     object_id, x, y, ground, confirmed, vy, y_var, vy_var, speed, yaw, road, road_ids, road_x,
-    road_vx, fused, dt,
-    gyro_var, prm, road_theta, road_cov, half_width, enter, keep, still, oncoming, policy, ids,
-    moved, last, kappa, rate, offset, prob, in_path, selected,
+    road_vx, fused, dt, gyro_var, prm, road_theta, road_cov, half_width, enter, keep, still,
+    oncoming, policy, ids, moved, last, kappa, rate, offset, prob, in_path, selected,
 ):  # pragma: no cover - compiled  # fmt: skip
     r""":meth:`InPathSelector.step` of every ego, one pass over its slots: the memory ``ids``,
     ``moved`` and ``last`` in place; with ``fused``, each ego's road filter ``road_theta``,
     ``road_cov`` one step on (:func:`~acc_fusion.warning.path.road_step`, reading the objects
-    ``road_ids``, ``road_x``, ``road_vx``), its curvature
-    and rate into ``kappa`` and ``rate`` (else ``kappa`` is given, the offset certain);
+    ``road_ids``, ``road_x``, ``road_vx``), its curvature and rate into ``kappa`` and
+    ``rate`` (else ``kappa`` is given, the offset certain);
     ``offset`` :math:`= y - y_p(x)`, ``prob``, ``in_path`` and ``selected`` (the nearest
     in-path slot, the first of equals; -1 for none) written.  ``policy``: the index of the
     stationary policy in :data:`STATIONARY_POLICIES`."""
