@@ -103,13 +103,17 @@ def test_the_in_path_probability_is_the_gaussian_mass_in_the_corridor():
         assert fp.in_path_probability(off, var, 1.75) == pytest.approx(want, rel=1e-12)
     assert fp.in_path_probability(1.7, 0.0, 1.75) == 1.0
     assert fp.in_path_probability(1.8, 0.0, 1.75) == 0.0
+    # far outside the corridor: nothing (the erf pair would give at most rounding)
+    assert fp.in_path_probability(-12.0, 1.0, 1.75) == 0.0
+    assert 0.0 < fp.in_path_probability(-6.0, 0.5, 1.75) < 1e-6
 
 
 def test_the_path_uncertainty_widens_with_distance_and_the_gyro_narrows_it():
     cfg = SelectionConfig()
     theta, cov = np.zeros(3), cfg.initial_road_cov()
     x, no = np.array([0.0]), np.zeros(1, bool)
-    args = (x, x, x, x, x, x, no, no, SPEED, 0.0, 0.005**2, 0.0, cfg.path_parameters())
+    scratch = (np.empty(1), np.empty(1, np.int64))
+    args = (x,) * 6 + (no, no, SPEED, 0.0, 0.005**2, 0.0, cfg.path_parameters(), *scratch)
     fp.road_step(theta, cov, 0.1, *args)
     once = cov[1, 1]
     var = [fp.path_offset(theta, cov, d, 0.0, 0.0)[1] for d in (20.0, 50.0, 100.0, 150.0)]
@@ -117,6 +121,27 @@ def test_the_path_uncertainty_widens_with_distance_and_the_gyro_narrows_it():
     for _ in range(50):
         fp.road_step(theta, cov, 0.1, *args)
     assert cov[1, 1] < once / 2  # the filtered yaw rate: less noisy than one sample
+
+
+def test_a_guardrail_beside_a_curve_bends_the_path_whatever_the_order_of_its_posts():
+    """Posts on a line parallel to a curve (offset unknown to the filter) give its curvature
+    through their neighbours' differences, and the slot order of the posts does not matter."""
+    cfg, c0 = SelectionConfig(), 2e-4
+    x = np.arange(10.0, 101.0, 5.0)
+    y = -4.0 + 0.5 * c0 * x**2  # a guardrail 4 m to the right, in the band
+    f, zeros = x.size, np.zeros(x.size)
+
+    def fit(order):
+        theta, cov = np.zeros(3), cfg.initial_road_cov()
+        for _ in range(20):  # standing still: no yaw-rate update, the trail alone
+            fp.road_step(theta, cov, 0.1, x[order], y[order], zeros, zeros, zeros + 0.01, zeros,
+                         np.zeros(f, bool), np.ones(f, bool), 0.0, 0.0, 0.0, 0.0,
+                         cfg.path_parameters(), np.empty(f), np.empty(f, np.int64))  # fmt: skip
+        return theta
+
+    theta = fit(np.arange(f))
+    assert theta[1] == pytest.approx(c0, rel=0.05)
+    np.testing.assert_allclose(fit(np.random.default_rng(1).permutation(f)), theta, rtol=1e-9)
 
 
 def test_the_selected_target_is_kept_down_to_the_keep_probability():

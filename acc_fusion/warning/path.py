@@ -104,7 +104,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 #: The indices of the parameters :func:`road_step` takes in its ``prm`` array.
@@ -145,7 +144,7 @@ def _update(theta, cov, h0, h1, h2, z, r, gate):  # pragma: no cover - compiled
 @njit(cache=True)
 def road_step(
     theta, cov, dt, x, y, vx, vy, y_var, vy_var, usable, still, speed, yaw_rate, gyro_var,
-    map_curvature, prm,
+    map_curvature, prm, off, order,
 ):  # pragma: no cover - compiled  # fmt: skip
     r"""One step of one ego's road filter (module docstring): predict ``theta (3,)`` and
     ``cov (3, 3)`` over ``dt`` [s], then update them with the yaw rate, the map and the
@@ -156,7 +155,8 @@ def road_step(
     as heading observations (moving vehicles ahead, not oncoming), ``still (F,)`` the
     stationary ones (candidates for a roadside trail); ``speed`` [m/s], ``yaw_rate``
     [rad/s], ``gyro_var`` its noise variance, ``map_curvature`` [1/m] (used when
-    ``prm[MAP_VAR] > 0``); ``prm`` the parameters by :data:`HEADING_VAR` ... :data:`GATE`."""
+    ``prm[MAP_VAR] > 0``); ``prm`` the parameters by :data:`HEADING_VAR` ... :data:`GATE`;
+    ``off (F,)`` float and ``order (F,)`` int64 scratch space (overwritten)."""
     ds = max(speed, 0.0) * dt
     # Predict: F = [[1, -a, 0], [0, 1, b], [0, 0, 1]] with a = v T, b = Δs; u = [ψ̇ T, 0, 0].
     a, b = speed * dt, ds
@@ -185,28 +185,33 @@ def road_step(
             r = prm[HEADING_VAR] + vy_var[k] / (ground * ground)
             z = math.atan2(vy[k], ground)
             _update(theta, cov, 1.0, x[k], 0.5 * x[k] * x[k], z, r, gate)
-    _trails(theta, cov, x, y, y_var, still, prm)
+    _trails(theta, cov, x, y, y_var, still, prm, off, order)
 
 
 @njit(cache=True)
-def _trails(theta, cov, x, y, y_var, still, prm):  # pragma: no cover - compiled
+def _trails(theta, cov, x, y, y_var, still, prm, off, order):  # pragma: no cover - compiled
     """The roadside-trail updates of :func:`road_step` (module docstring): on each side of
-    the path, the neighbours along the range among the stationary objects in the band."""
-    f = x.size
-    off = np.empty(f)
-    side = np.zeros(f, dtype=np.int64)
-    for k in range(f):
+    the path, the neighbours along the range among the stationary objects in the band.
+    ``off`` and ``order`` are scratch space: the band's objects' offsets from the path, and
+    their indices sorted by range (an insertion sort: a few objects, no allocation)."""
+    m = 0
+    for k in range(x.size):
         if still[k] and prm[MIN_RANGE] <= x[k] <= prm[MAX_RANGE]:
-            p = 0.5 * theta[1] * x[k] * x[k] + theta[2] * x[k] * x[k] * x[k] / 6.0
-            off[k] = y[k] - p
-            if prm[RAIL_MIN] <= abs(off[k]) <= prm[RAIL_MAX]:
-                side[k] = 1 if off[k] > 0 else -1
-    order = np.argsort(x)
+            o = y[k] - (0.5 * theta[1] * x[k] * x[k] + theta[2] * x[k] * x[k] * x[k] / 6.0)
+            if prm[RAIL_MIN] <= abs(o) <= prm[RAIL_MAX]:
+                off[k] = o
+                i = m
+                while i > 0 and x[order[i - 1]] > x[k]:
+                    order[i] = order[i - 1]
+                    i -= 1
+                order[i] = k
+                m += 1
     gate = prm[GATE] * prm[GATE]
-    for sgn in (-1, 1):
+    for right in (False, True):
         prev = -1
-        for k in order:
-            if side[k] != sgn:
+        for i in range(m):
+            k = order[i]
+            if (off[k] > 0.0) != right:
                 continue
             if prev >= 0 and abs(off[k] - off[prev]) <= prm[RAIL_GATE]:
                 a, b = x[prev], x[k]
@@ -222,6 +227,9 @@ def in_path_probability(offset, variance, half_width):  # pragma: no cover - com
     lies within ``±half_width`` (module docstring); 1 or 0 for a zero variance."""
     if variance <= 0.0:
         return 1.0 if abs(offset) <= half_width else 0.0
+    out = abs(offset) - half_width
+    if out > 0.0 and out * out > 70.0 * variance:  # beyond 8.4 σ outside: P < 1e-16
+        return 0.0
     s = math.sqrt(2.0 * variance)
     return 0.5 * (math.erf((half_width - offset) / s) - math.erf((-half_width - offset) / s))
 

@@ -213,7 +213,9 @@ class InPathSelector(PairState):
     environment's observation): ``curvature (E,)`` of the predicted path at the ego [1/m]
     (:math:`c_0`), ``curvature_rate (E,)`` [1/m²] (:math:`c_1`, 0 but for the ``"fused"``
     path), ``offset (E, F)`` each object's lateral offset from it, :math:`y - y_p(x)` [m],
-    ``probability (E, F)`` its in-path probability, ``in_path (E, F)`` the objects it could
+    ``probability (E, F)`` its in-path probability (0 for an empty slot and for an object
+    that the stationary and oncoming rules or a place behind the ego exclude),
+    ``in_path (E, F)`` the objects it could
     select and ``selected (E,)`` the slot it returned.
 
     ``yaw_rate_std`` [rad/s] is the noise of the yaw rate it is given (the ``"fused"`` path
@@ -330,11 +332,13 @@ def _select(
     ``road_cov`` one step on (:func:`~acc_fusion.warning.path.road_step`, reading the objects
     ``road_ids``, ``road_x``, ``road_vx``), its curvature and rate into ``kappa`` and
     ``rate`` (else ``kappa`` is given, the offset certain);
-    ``offset`` :math:`= y - y_p(x)`, ``prob``, ``in_path`` and ``selected`` (the nearest
+    ``offset`` :math:`= y - y_p(x)`, ``prob`` (0 for an object the stationary, oncoming
+    and behind-the-ego rules exclude), ``in_path`` and ``selected`` (the nearest
     in-path slot, the first of equals; -1 for none) written.  ``policy``: the index of the
     stationary policy in :data:`STATIONARY_POLICIES`."""
     n, f = object_id.shape
     usable, rest = np.empty(f, dtype=np.bool_), np.empty(f, dtype=np.bool_)
+    band_off, band_order = np.empty(f), np.empty(f, dtype=np.int64)  # road_step's scratch
     for e in range(n):
         for k in range(f):
             oid = object_id[e, k]
@@ -351,7 +355,7 @@ def _select(
         if fused:
             fp.road_step(road_theta[e], road_cov[e], dt, road_x[e], y[e], road_vx[e], vy[e],
                          y_var[e], vy_var[e], usable, rest, speed[e], yaw[e], gyro_var, road[e],
-                         prm)  # fmt: skip
+                         prm, band_off, band_order)  # fmt: skip
             kappa[e], rate[e] = road_theta[e, 1], road_theta[e, 2]
         best, nearest = -1, np.inf
         for k in range(f):
@@ -362,16 +366,19 @@ def _select(
             else:
                 off, var = y[e, k] - 0.5 * kappa[e] * xk * xk, 0.0
             offset[e, k] = off
-            p = fp.in_path_probability(off, var, half_width)
-            prob[e, k] = p
-            ok = oid >= 0 and xk > 0.0 and (p >= enter or (oid == last[e] and p >= keep))
             stationary = abs(ground[e, k]) < still
+            ok = oid >= 0 and xk > 0.0
             if not oncoming:
                 ok = ok and ground[e, k] > -still
             if policy == _IGNORE:
                 ok = ok and not stationary
             elif policy == _CONFIRMED:
                 ok = ok and (not stationary or confirmed[e, k] or moved[e, k])
+            # the probability only of an object the other rules let through (the erf pair
+            # is the loop's cost)
+            p = fp.in_path_probability(off, var, half_width) if ok else 0.0
+            prob[e, k] = p
+            ok = ok and (p >= enter or (oid == last[e] and p >= keep))
             in_path[e, k] = ok
             if ok and xk < nearest:
                 best, nearest = k, xk
