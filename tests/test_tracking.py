@@ -360,6 +360,33 @@ def _no_detections(sensor):
     return Detections(0.0, sensor, 1, True, none, *(empty,) * 6, none, none.astype(np.int8))
 
 
+def _far_camera_track(growth, rng, egos=16, frames=400, r=90.0):
+    """The mean range error of camera-like tracks of a car ``r`` ahead of each of ``egos``
+    egos (noise std 0.3 + q r² drawn at the true range and declared at the measured one),
+    over their last 300 frames, with the noise model's growth q given to the tracker or not
+    (0)."""
+    q = 1.21e-3  # the thermal camera's sigma_y / (f H) [1/m]
+    tracker, one = Tracker("infrared", TrackerConfig(), egos), np.ones(egos)
+    ego, errors = np.arange(egos), []
+    for i in range(frames):
+        z = r + (0.3 + q * r * r) * rng.standard_normal(egos)
+        det = Detections(i * DT, "infrared", egos, True, ego, z, 0 * one, 0 * one,
+                         0.3 + q * z * z, 0.002 * one, 0.5 * one, ego, ego.astype(np.int8),
+                         growth)  # fmt: skip
+        tracks = tracker.step(det, 0 * one, 0 * one, DT)
+        if i >= frames - 300:
+            errors.append(tracks.state[tracks.valid][:, 0] - r)
+    return float(np.mean(np.concatenate(errors)))
+
+
+def test_a_camera_track_of_a_far_car_is_unbiased_with_the_std_at_the_predicted_range(rng):
+    """Declared at the measured range, a std that grows as r² weights short measurements
+    more and pulls the track short (4.7 m at 90 m for a weighted mean); the tracker takes
+    the std at its prediction when the detections give the growth."""
+    assert _far_camera_track(0.0, rng) < -2.0
+    assert abs(_far_camera_track(1.21e-3, rng)) < 1.0
+
+
 def test_forget_drops_one_egos_tracks_and_objects_and_ids_are_never_reused(rng):
     scene = _two_sensor_scene()
     cfg = TrackerConfig()

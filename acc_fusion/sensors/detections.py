@@ -8,6 +8,7 @@ operations whatever the number of egos (ragged rows: ``ego`` names the row).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -24,7 +25,7 @@ _FLOATS = ("range", "azimuth", "range_rate", "range_std", "azimuth_std", "range_
 
 @dataclass(frozen=True)
 class Detections:
-    """One sensor's detections of E egos at time ``t`` (``K`` detections in all).
+    r"""One sensor's detections of E egos at time ``t`` (``K`` detections in all).
 
     Attributes:
         t: frame time [s].
@@ -43,6 +44,15 @@ class Detections:
             ghosts and clutter.  Truth for diagnostics and metrics: trackers must not read it.
         origin: ``(K,)`` int8, the :class:`~acc_fusion.truth.objects.ObjectKind` of that
             object, or :data:`GHOST` / :data:`CLUTTER`.  Truth, like ``object_id``.
+        range_std_growth, range_rate_std_growth: :math:`q` [1/m, 1/(m s)] of the sensor's
+            noise model :math:`\sigma(r) = \sigma_0 + q r^2` (0: a constant std).  The
+            declared stds are the model at the measured range :math:`\hat r`; a consumer with
+            a prediction :math:`r^-` of the range evaluates it there, :math:`\sigma(r^-) =
+            \sigma(\hat r) + q\,(r^{-2} - \hat r^2)`: a std taken at the measured range is
+            correlated with the measurement's error, and weighting by it biases the estimate
+            (short, as :math:`\hat r^{-4}` favours short measurements: Bordonaro, Willett &
+            Bar-Shalom, "Decorrelated unbiased converted measurement Kalman filter", *IEEE
+            Trans. AES* 50(2), 2014).
     """
 
     t: float
@@ -58,6 +68,8 @@ class Detections:
     range_rate_std: np.ndarray
     object_id: np.ndarray
     origin: np.ndarray
+    range_std_growth: float = 0.0
+    range_rate_std_growth: float = 0.0
 
     def __post_init__(self) -> None:
         ego = np.asarray(self.ego)
@@ -77,6 +89,11 @@ class Detections:
                 raise InputError(f"{self.sensor}.{name} must be an integer array of shape ({k},)")
             object.__setattr__(self, name, value.astype(dtype, copy=False))
         object.__setattr__(self, "ego", ego.astype(np.int64, copy=False))
+        for name in ("range_std_growth", "range_rate_std_growth"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise InputError(f"{self.sensor}.{name} must be a finite number >= 0")
+            object.__setattr__(self, name, float(value))
 
     @property
     def count(self) -> int:

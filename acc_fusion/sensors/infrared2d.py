@@ -207,15 +207,21 @@ class Infrared2DSpec:
     def noise_std(self, range_m: np.ndarray) -> np.ndarray:
         """``(3, K)`` noise standard deviations at range ``range_m`` ``(K,)`` [m]: range [m],
         azimuth [rad], range-rate [m/s] (module docstring)."""
-        f = self.focal_px
         r2 = np.square(np.asarray(range_m, dtype=float))
-        q_range = self.row_std_px / (f * self.camera_height)
-        q_rate = math.sqrt(2) * self.width_std_px / (f * self.reference_width * self.scale_baseline)
+        q_range, q_rate = self.noise_growth()
         return np.stack([
             self.range_std + q_range * r2,
-            np.full(r2.shape, self.column_std_px / f),
+            np.full(r2.shape, self.column_std_px / self.focal_px),
             self.range_rate_std + q_rate * r2,
         ])  # fmt: skip
+
+    def noise_growth(self) -> tuple[float, float]:
+        r"""The growth :math:`q` [1/m, 1/(m s)] of the range and range-rate stds with the
+        square of the range (module docstring): :math:`\sigma_y / (f H)` and
+        :math:`\sqrt 2\, \sigma_w / (f W \Delta t)`."""
+        f = self.focal_px
+        q_rate = math.sqrt(2) * self.width_std_px / (f * self.reference_width * self.scale_baseline)
+        return self.row_std_px / (f * self.camera_height), q_rate
 
 
 class Infrared2D(Scanner):

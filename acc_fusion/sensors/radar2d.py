@@ -192,6 +192,11 @@ class Radar2DSpec:
         std = [self.range_std, math.radians(self.azimuth_std_deg), self.range_rate_std]
         return np.repeat(np.array(std)[:, None], np.size(range_m), axis=1)
 
+    def noise_growth(self) -> tuple[float, float]:
+        """The growth of the range and range-rate stds with the square of the range
+        (:attr:`~acc_fusion.sensors.detections.Detections.range_std_growth`): none."""
+        return 0.0, 0.0
+
 
 class Radar2D(Scanner):
     """The radar of :mod:`acc_fusion.sensors.radar2d` on E egos.

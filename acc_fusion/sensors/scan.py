@@ -120,10 +120,13 @@ def emit(
     returns: Returns,
     z: np.ndarray,
     declared_std: np.ndarray,
+    growth: tuple[float, float] = (0.0, 0.0),
 ) -> Detections:
     """The :class:`Detections` of ``returns`` measured as ``z (3, K)`` with the declared
-    standard deviations ``declared_std (3, K)``, sorted by ego (stable): made of the sensor's
-    own arrays, without the constructor's checks (``z`` and ``declared_std`` finite)."""
+    standard deviations ``declared_std (3, K)`` and the noise model's ``growth`` (range,
+    range-rate: :attr:`Detections.range_std_growth`), sorted by ego (stable): made of the
+    sensor's own arrays, without the constructor's checks (``z`` and ``declared_std``
+    finite)."""
     ego, k = returns.ego, returns.ego.size
     z, std = np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(declared_std, dtype=float)
     if z.shape != (3, k) or std.shape != (3, k):
@@ -135,7 +138,7 @@ def emit(
     if k and (ego.min() < 0 or ego.max() >= n_egos):
         raise InputError(f"{name}: the returns' egos must lie in [0, {n_egos})")
     ego, z, std, object_id, origin = _by_ego(n_egos, ego, z, std, returns.object_id, returns.origin)
-    values = (t, name, n_egos, True, ego, *z, *std, object_id, origin)
+    values = (t, name, n_egos, True, ego, *z, *std, object_id, origin, *map(float, growth))
     return unchecked(Detections, dict(zip(DETECTION_FIELDS, values, strict=True)))
 
 
@@ -292,7 +295,7 @@ class Scanner:
                 z += self._spikes(f, z.shape[1])
         z[0] = np.maximum(z[0], 0.0)  # a sensor reports no negative range (noise, bias)
         declared = s.noise_std(z[0])
-        out = emit(frame.t, s.name, frame.n_egos, found + clutter, z, declared)
+        out = emit(frame.t, s.name, frame.n_egos, found + clutter, z, declared, s.noise_growth())
         kinds = {f.kind for f in active}
         if "dropout" in kinds:
             return offline(frame.t, s.name, frame.n_egos)

@@ -394,9 +394,10 @@ def fused_measurements(
             raise InputError(f"the {trk.sensor} tracks and detections must be of {e} egos")
         z, r = np.empty((n, MEAS_DIM)), np.empty((n, MEAS_DIM, MEAS_DIM))
         valid, ghost = np.empty(n, bool), np.empty(n, bool)
-        _measure(slots, fused.track[..., s], trk.detection, det.range, det.azimuth,
+        _measure(slots, fused.track[..., s], trk.detection, trk.state, det.range, det.azimuth,
                  det.range_std, det.azimuth_std, det.range_rate, det.range_rate_std,
-                 det.origin, z, r, valid, ghost)  # fmt: skip
+                 det.range_std_growth, det.range_rate_std_growth, det.origin, z, r, valid,
+                 ghost)  # fmt: skip
         out.append(Measurement(det.t, det.sensor, z, r, valid, ghost, bool(det.online)))
     return out, target
 
@@ -414,16 +415,20 @@ def _targets(slots, fused_valid, fused_id, target):  # pragma: no cover - compil
 
 @njit(cache=True)
 def _measure(
-    slots, track, detection, rng, azimuth, range_std, azimuth_std, range_rate, range_rate_std,
-    origin, z, r, valid, ghost,
+    slots, track, detection, state, rng, azimuth, range_std, azimuth_std, range_rate,
+    range_rate_std, growth, rate_growth, origin, z, r, valid, ghost,
 ):  # pragma: no cover - compiled  # fmt: skip
     """One sensor's measurement of each pair (its flat slot in ``slots``): the detection its
     track in the slot (``track (E, F)``) took at this frame, as the converted ``x`` and the
     range-rate, ``z (N, 2)``, their variances in ``r (N, 2, 2)`` (identity and NaN where it
-    has none), ``valid`` and ``ghost`` (a ghost or clutter detection)."""
+    has none), ``valid`` and ``ghost`` (a ghost or clutter detection).  Stds that grow with
+    range (``growth``, ``rate_growth``) are taken at the range of the track's ``state (E, T,
+    4)`` rather than the measured one (:class:`~acc_fusion.sensors.detections.Detections`;
+    the track, updated by this detection, is the estimate at hand: its correlation with the
+    measurement's error is its gain, small where the std is large)."""
     f = track.shape[1]
     for i in range(slots.size):
-        q, k = slots[i], -1
+        q, k, t = slots[i], -1, -1
         if q >= 0:
             t = track[q // f, q % f]
             if t >= 0:
@@ -433,7 +438,12 @@ def _measure(
         if k < 0:
             z[i, 0], z[i, 1], r[i, 0, 0], r[i, 1, 1], ghost[i] = np.nan, np.nan, 1.0, 1.0, False
             continue
-        x, _, rxx, _, _ = converted(rng[k], azimuth[k], range_std[k], azimuth_std[k])
+        e, sr, sv = q // f, range_std[k], range_rate_std[k]
+        if growth > 0.0 or rate_growth > 0.0:
+            x_t, y_t = state[e, t, 0], state[e, t, 2]
+            change = x_t * x_t + y_t * y_t - rng[k] * rng[k]
+            sr, sv = max(sr + growth * change, 0.0), max(sv + rate_growth * change, 0.0)
+        x, _, rxx, _, _ = converted(rng[k], azimuth[k], sr, azimuth_std[k])
         z[i, 0], z[i, 1] = x, range_rate[k]
-        r[i, 0, 0], r[i, 1, 1] = rxx, range_rate_std[k] ** 2
+        r[i, 0, 0], r[i, 1, 1] = rxx, sv**2
         ghost[i] = origin[k] == GHOST or origin[k] == CLUTTER

@@ -72,6 +72,27 @@ def ego_transform(dt, speed0, speed1, yaw_rate, f, a, b):  # pragma: no cover - 
 
 
 @njit(cache=True, inline="always")
+def _at_range(x, k, rng, range_std, growth, zx, zy, rxx, rxy, ryy, out):  # pragma: no cover
+    r"""Detection ``k``'s converted covariance ``(rxx, rxy, ryy)`` into ``out``, its range std
+    taken at the range of the predicted state ``x`` instead of the measured one when the std
+    grows with range (``growth`` :math:`q > 0`): :math:`\sigma_r = \sigma_r(\hat r) + q (r^{-2}
+    - \hat r^2)` (:class:`~acc_fusion.sensors.detections.Detections`), the azimuth term as
+    declared.  With :math:`R_z = J \operatorname{diag}(\sigma_r^2, \sigma_\theta^2) J^\top`,
+    only the range variance's part :math:`\sigma_r^2 \mathbf u \mathbf u^\top` (:math:`\mathbf
+    u` the unit vector to the detection) changes."""
+    out[0], out[1], out[2] = rxx[k], rxy[k], ryy[k]
+    if growth <= 0.0 or rng[k] <= 0.0:
+        return
+    pred2 = x[0] * x[0] + x[2] * x[2]
+    std = max(range_std[k] + growth * (pred2 - rng[k] * rng[k]), 0.0)
+    dv = std * std - range_std[k] * range_std[k]
+    c, s = zx[k] / rng[k], zy[k] / rng[k]
+    out[0] += c * c * dv
+    out[1] += c * s * dv
+    out[2] += s * s * dv
+
+
+@njit(cache=True, inline="always")
 def _innovation(x, p, zx, zy, rxx, rxy, ryy, y, s_mat, si, work):  # pragma: no cover
     """Innovation ``y``, its covariance's inverse ``si`` for the measurement ``(zx, zy)`` of the
     position; returns the squared Mahalanobis distance."""
@@ -124,25 +145,27 @@ UNNUMBERED = -2
 @njit(cache=True)
 def track_step(
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
-    rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, det_object, online,
-    speed0, speed1, yaw_rate, dt, params, next_id, widest,
+    rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, growth, det_object,
+    online, speed0, speed1, yaw_rate, dt, params, next_id, widest,
 ):  # pragma: no cover - compiled  # fmt: skip
     """One frame of every ego's tracks, in place (slot arrays ``(E, T, ...)``; the frame's
-    detections flat, ego ``e``'s in ``rows[e]:rows[e + 1]``, at most ``widest`` per ego).
+    detections flat, ego ``e``'s in ``rows[e]:rows[e + 1]``, at most ``widest`` per ego;
+    ``growth`` their range std's growth with the square of the range).
     ``params``: ``(q, gate, confirm_m, confirm_n, delete_misses, max_coast,
     init_velocity_var)``; ``next_id[0]``: the next unused track id."""
     conv = converted(rng, azimuth, range_std, azimuth_std)
     _track_egos(0, valid.shape[0], x, p, valid, confirmed, track_id, detection, hits, misses,
-                scans, object_id, age, coast, rows, conv, azimuth, range_rate, range_rate_std,
-                det_object, online, speed0, speed1, yaw_rate, dt, params, widest)  # fmt: skip
+                scans, object_id, age, coast, rows, conv, rng, azimuth, range_std, growth,
+                range_rate, range_rate_std, det_object, online, speed0, speed1, yaw_rate, dt,
+                params, widest)  # fmt: skip
     number_new(track_id, next_id)
 
 
 @njit(cache=True, parallel=True)
 def track_step_parallel(
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
-    rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, det_object, online,
-    speed0, speed1, yaw_rate, dt, params, next_id, widest, chunks,
+    rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, growth, det_object,
+    online, speed0, speed1, yaw_rate, dt, params, next_id, widest, chunks,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`track_step` on the cores, the egos in ``chunks`` blocks, one thread each at a
     time: the egos' tracks are independent, and the new tracks are numbered after, in the
@@ -151,9 +174,9 @@ def track_step_parallel(
     n = valid.shape[0]
     for c in prange(chunks):
         _track_egos(c * n // chunks, (c + 1) * n // chunks, x, p, valid, confirmed, track_id,
-                    detection, hits, misses, scans, object_id, age, coast, rows, conv, azimuth,
-                    range_rate, range_rate_std, det_object, online, speed0, speed1, yaw_rate, dt,
-                    params, widest)  # fmt: skip
+                    detection, hits, misses, scans, object_id, age, coast, rows, conv, rng,
+                    azimuth, range_std, growth, range_rate, range_rate_std, det_object, online,
+                    speed0, speed1, yaw_rate, dt, params, widest)  # fmt: skip
     number_new(track_id, next_id)
 
 
@@ -170,12 +193,14 @@ def number_new(track_id, next_id):  # pragma: no cover - compiled
 @njit(cache=True)
 def _track_egos(
     lo, hi, x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age,
-    coast, rows, conv, azimuth, range_rate, range_rate_std, det_object, online, speed0, speed1,
-    yaw_rate, dt, params, widest,
+    coast, rows, conv, rng, azimuth, range_std, growth, range_rate, range_rate_std, det_object,
+    online, speed0, speed1, yaw_rate, dt, params, widest,
 ):  # pragma: no cover - compiled  # fmt: skip
     """The frame of egos ``lo`` to ``hi`` (:func:`track_step`; ``conv``: the detections'
-    converted positions and covariances, :func:`converted`), with work arrays of its own;
-    new tracks are left :data:`UNNUMBERED`."""
+    converted positions and covariances at the measured range, :func:`converted`; with a
+    ``growth`` of the range std, each track-detection pair's covariance takes the range std
+    at the track's predicted range, :func:`_at_range`), with work arrays of its own; new
+    tracks are left :data:`UNNUMBERED`."""
     q, gate, m_conf, n_conf, max_misses, max_coast, vel_var = params
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast = (
         borrow((x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id,
@@ -184,7 +209,9 @@ def _track_egos(
     rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate = borrow(
         (rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate)
     )
+    rng, range_std = borrow((rng, range_std))
     zx, zy, rxx, rxy, ryy = borrow(conv)
+    cov = np.empty(3)  # one pair's (rxx, rxy, ryy)
     n_slots = valid.shape[1]
     k_max = max(widest, 1)
     owners = (
@@ -218,12 +245,13 @@ def _track_egos(
             t = slots[i]
             for j in range(n_k):
                 k = k0 + j
+                _at_range(x[e, t], k, rng, range_std, growth, zx, zy, rxx, rxy, ryy, cov)
                 dx = zx[k] - x[e, t, 0]
-                if dx * dx >= gate * (p[e, t, 0, 0] + rxx[k]):  # d2 >= dx^2 / S_xx: outside
+                if dx * dx >= gate * (p[e, t, 0, 0] + cov[0]):  # d2 >= dx^2 / S_xx: outside
                     d2[i, j] = np.inf
                     continue
                 d2[i, j] = _innovation(
-                    x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], y, s_mat, si, work
+                    x[e, t], p[e, t], zx[k], zy[k], cov[0], cov[1], cov[2], y, s_mat, si, work
                 )
         gnn(d2, n_t, n_k, gate, out, scratch)
         for j in range(n_k):
@@ -235,7 +263,8 @@ def _track_egos(
                 misses[e, t] += 1
                 continue
             k = k0 + j
-            _innovation(x[e, t], p[e, t], zx[k], zy[k], rxx[k], rxy[k], ryy[k], y, s_mat, si, work)
+            _at_range(x[e, t], k, rng, range_std, growth, zx, zy, rxx, rxy, ryy, cov)
+            _innovation(x[e, t], p[e, t], zx[k], zy[k], cov[0], cov[1], cov[2], y, s_mat, si, work)
             _update(x[e, t], p[e, t], y, si, ph, kg)
             used[j] = True
             detection[e, t], object_id[e, t] = k, det_object[k]

@@ -54,7 +54,15 @@ Measurement: converted-measurement Kalman filter
         J = \begin{bmatrix} \cos\theta & -r\sin\theta \\ \sin\theta & r\cos\theta
         \end{bmatrix},
 
-    evaluated at the measured :math:`r, \theta`, and updates the track linearly with
+    evaluated at the measured :math:`r, \theta` — but where the sensor's range noise grows
+    with range (the camera's :math:`\sigma_r = \sigma_0 + q r^2`), the range std is taken at
+    the track's predicted range: declared at the measured range it is correlated with the
+    measurement's error, and the weight :math:`\sigma_r^{-2} \propto \hat r^{-4}` favours
+    short measurements (the camera's tracks of cars 70-120 m ahead came out 3.4 m short on
+    average, and one in ten failed the association with the radar's; Bordonaro, Willett &
+    Bar-Shalom, "Decorrelated unbiased converted measurement Kalman filter", *IEEE Trans.
+    AES* 50(2), 2014, evaluate the whole covariance at the prediction for the same reason) —
+    and updates the track linearly with
     :math:`H = \begin{bmatrix} 1&0&0&0 \\ 0&0&1&0 \end{bmatrix}` (Lerro & Bar-Shalom, "Tracking
     with debiased consistent converted measurements versus EKF", *IEEE Trans. AES* 29(3), 1993;
     Bar-Shalom, Li & Kirubarajan 2001, §10.4.3).  The conversion's bias is neglected: it is
@@ -331,7 +339,8 @@ class Tracker(PairState):
         args = (
             self._x, self._p, self._valid, self._confirmed, *i, self._age, self._coast, rows,
             det.range, det.azimuth, det.range_rate, det.range_std, det.azimuth_std,
-            det.range_rate_std, det.object_id, bool(det.online), np.ascontiguousarray(speed0),
+            det.range_rate_std, det.range_std_growth, det.object_id, bool(det.online),
+            np.ascontiguousarray(speed0),
             np.ascontiguousarray(speed), np.ascontiguousarray(yaw), dt, self._params,
             self._next_id, widest,
         )  # fmt: skip
