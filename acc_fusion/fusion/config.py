@@ -88,9 +88,10 @@ class FusionConfig:
             small).  Evaluating it at the prediction decorrelates the two (the decorrelated
             converted-measurement filter of Bordonaro, Willett & Bar-Shalom, IEEE Trans.
             AES 50(2):1431-1444, 2014).  Needs the sensors' specs (``make_estimator(...,
-            specs=...)``); without them, for a new track, and in the 2-D world (whose fused
-            objects carry their detections' converted covariances), the report's ``r`` is
-            used.
+            specs=...)``); without them and for a new track the report's ``r`` is used.  The
+            2-D world sets ``"report"``: its fused objects carry their detections' converted
+            covariances, whose range std the bridge has already taken at the track's range
+            (:func:`~acc_fusion.fusion.tracking.association.fused_measurements`).
     """
 
     method: str = "federated"

@@ -48,7 +48,7 @@ class Detections:
             noise model :math:`\sigma(r) = \sigma_0 + q r^2` (0: a constant std).  The
             declared stds are the model at the measured range :math:`\hat r`; a consumer with
             a prediction :math:`r^-` of the range evaluates it there, :math:`\sigma(r^-) =
-            \sigma(\hat r) + q\,(r^{-2} - \hat r^2)`: a std taken at the measured range is
+            \sigma(\hat r) + q\,((r^-)^2 - \hat r^2)`: a std taken at the measured range is
             correlated with the measurement's error, and weighting by it biases the estimate
             (short, as :math:`\hat r^{-4}` favours short measurements: Bordonaro, Willett &
             Bar-Shalom, "Decorrelated unbiased converted measurement Kalman filter", *IEEE

@@ -172,8 +172,9 @@ class WorldPerception(PairState):
         self._gyro = np.random.default_rng(s_gyro)
         self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / config.dt, interval_accel=True))
         filters = replace(config.fusion.filter, dt=config.dt, ego_accel_std=ACCEL_STD)
-        # A fused object's R is the converted 2-D covariance of its detection, not the 1-D
-        # spec's range law: it is used as reported.
+        # A fused object's R is the converted 2-D covariance of its detection, its range std
+        # already taken at the track's range (fused_measurements), not the 1-D spec's range
+        # law: it is used as given.
         fusion = replace(config.fusion, filter=filters, noise_at="report")
         pairs = n * self.slots
         specs = config.sensor_specs()

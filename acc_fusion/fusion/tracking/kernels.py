@@ -75,7 +75,7 @@ def ego_transform(dt, speed0, speed1, yaw_rate, f, a, b):  # pragma: no cover - 
 def _at_range(x, k, rng, range_std, growth, zx, zy, rxx, rxy, ryy, out):  # pragma: no cover
     r"""Detection ``k``'s converted covariance ``(rxx, rxy, ryy)`` into ``out``, its range std
     taken at the range of the predicted state ``x`` instead of the measured one when the std
-    grows with range (``growth`` :math:`q > 0`): :math:`\sigma_r = \sigma_r(\hat r) + q (r^{-2}
+    grows with range (``growth`` :math:`q > 0`): :math:`\sigma_r = \sigma_r(\hat r) + q ((r^-)^2
     - \hat r^2)` (:class:`~acc_fusion.sensors.detections.Detections`), the azimuth term as
     declared.  With :math:`R_z = J \operatorname{diag}(\sigma_r^2, \sigma_\theta^2) J^\top`,
     only the range variance's part :math:`\sigma_r^2 \mathbf u \mathbf u^\top` (:math:`\mathbf
