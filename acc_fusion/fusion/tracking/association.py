@@ -62,7 +62,7 @@ from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse
 from acc_fusion.fusion.tracking import tracker
 from acc_fusion.fusion.tracking.assignment import gnn, scratch_arrays
-from acc_fusion.fusion.tracking.kernels import UNNUMBERED, converted, number_new
+from acc_fusion.fusion.tracking.kernels import UNNUMBERED, converted, number_new, std_at
 from acc_fusion.fusion.tracking.tracker import GateConfig, Tracks
 from acc_fusion.sensors.detections import CLUTTER, GHOST, Detections
 from acc_fusion.sensors.sensor import Measurement
@@ -440,9 +440,8 @@ def _measure(
             continue
         e, sr, sv = q // f, range_std[k], range_rate_std[k]
         if growth > 0.0 or rate_growth > 0.0:
-            x_t, y_t = state[e, t, 0], state[e, t, 2]
-            change = x_t * x_t + y_t * y_t - rng[k] * rng[k]
-            sr, sv = max(sr + growth * change, 0.0), max(sv + rate_growth * change, 0.0)
+            r2 = state[e, t, 0] ** 2 + state[e, t, 2] ** 2
+            sr, sv = std_at(sr, growth, rng[k], r2), std_at(sv, rate_growth, rng[k], r2)
         x, _, rxx, _, _ = converted(rng[k], azimuth[k], sr, azimuth_std[k])
         z[i, 0], z[i, 1] = x, range_rate[k]
         r[i, 0, 0], r[i, 1, 1] = rxx, sv**2

@@ -72,6 +72,14 @@ def ego_transform(dt, speed0, speed1, yaw_rate, f, a, b):  # pragma: no cover - 
 
 
 @njit(cache=True, inline="always")
+def std_at(std, growth, measured, range_sq):  # pragma: no cover - compiled
+    r"""A std declared as :math:`\sigma(\hat r) = \sigma_0 + q \hat r^2` at the ``measured``
+    range :math:`\hat r`, taken at the range whose square is ``range_sq`` instead (``growth``
+    :math:`q`; :class:`~acc_fusion.sensors.detections.Detections`), never below 0."""
+    return max(std + growth * (range_sq - measured * measured), 0.0)
+
+
+@njit(cache=True, inline="always")
 def _at_range(x, k, rng, range_std, growth, zx, zy, rxx, rxy, ryy, out):  # pragma: no cover
     r"""Detection ``k``'s converted covariance ``(rxx, rxy, ryy)`` into ``out``, its range std
     taken at the range of the predicted state ``x`` instead of the measured one when the std
@@ -83,8 +91,7 @@ def _at_range(x, k, rng, range_std, growth, zx, zy, rxx, rxy, ryy, out):  # prag
     out[0], out[1], out[2] = rxx[k], rxy[k], ryy[k]
     if growth <= 0.0 or rng[k] <= 0.0:
         return
-    pred2 = x[0] * x[0] + x[2] * x[2]
-    std = max(range_std[k] + growth * (pred2 - rng[k] * rng[k]), 0.0)
+    std = std_at(range_std[k], growth, rng[k], x[0] * x[0] + x[2] * x[2])
     dv = std * std - range_std[k] * range_std[k]
     c, s = zx[k] / rng[k], zy[k] / rng[k]
     out[0] += c * c * dv
