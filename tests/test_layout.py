@@ -21,6 +21,7 @@ STAGES = (
     "fusion",
     "warning",
     "metrics",
+    "braking",
     "sim",
     "studies",
     "envs",

@@ -45,8 +45,10 @@ def _check(args: argparse.Namespace, conditions: list) -> None:
         raise ConfigError("--open-loop and --conditions are settings of the 2-D world; drop --pair")
     if world and (args.gui or args.ssm):
         raise ConfigError("the 2-D world runs headless, without the SSM cross-check; add --pair")
-    if args.open_loop and (args.all_drives or args.seeds):
-        raise ConfigError("--open-loop runs one seed without drivers; drop --all-drives, --seeds")
+    if args.open_loop and (args.all_drives or args.seeds or args.aeb):
+        raise ConfigError(
+            "--open-loop runs one seed without drivers; drop --all-drives, --seeds, --aeb"
+        )
     if not args.open_loop and len(conditions) > 1:
         raise ConfigError("a closed loop runs one condition; give --conditions one value")
     if args.seeds and (args.gui or args.seed is not None):
@@ -76,11 +78,13 @@ def run(args: argparse.Namespace) -> int:
     if seeds:
         store = out / "runs" if out else None
         study, _ = seeds_study(
-            sumo_cfg, sim, seeds, mapper, drives=drives, world=world, store=store
+            sumo_cfg, sim, seeds, mapper, drives=drives, world=world, store=store, aeb=args.aeb
         )
         stem, seed_field = f"sumo_{path.stem}_seeds", list(seeds)
     else:
-        study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=world)
+        study = sumo_study(
+            sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=world, aeb=args.aeb
+        )
         stem, seed_field = f"sumo_{path.stem}_seed{sumo_cfg.seed}", sumo_cfg.seed
     table = study.table()
     if seeds:
@@ -94,11 +98,15 @@ def run(args: argparse.Namespace) -> int:
         causes = {"causes": world_study.causes(), "cause_rates": world_study.cause_rates()}
         print("\n" + causes["causes"].format())
     print("\n" + study.benefits().format())
+    aeb = study.aeb_table()
+    if aeb is not None:
+        print("\n" + aeb.format())
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
     if out is not None:
-        for name, t in causes.items():
+        tables = {**causes, **({} if aeb is None else {"aeb": aeb})}
+        for name, t in tables.items():
             write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
         if world:
             save_figure_atomic(world_study.figure(), out / f"{stem}_causes.png")

@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 from tqdm.auto import tqdm
 
+from acc_fusion.braking.aeb import AEB, AEBConfig
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.core.slots import Extent, PairState, resize_all
@@ -79,6 +80,8 @@ class SimConfig:
         radar_faults, infrared_faults: faults injected into each sensor.
         world: the 2-D world's settings (scene, conditions, 2-D sensors, trackers,
             association, in-path selection), used by :func:`acc_fusion.sim.world.simulate_world`.
+        aeb: automatic emergency braking after the warning (:mod:`acc_fusion.braking.aeb`;
+            off by default: FCW only).
     """
 
     scenario: str = "random"
@@ -99,6 +102,7 @@ class SimConfig:
     radar_faults: tuple[Fault, ...] = ()
     infrared_faults: tuple[Fault, ...] = ()
     world: WorldConfig = field(default_factory=WorldConfig)
+    aeb: AEBConfig = field(default_factory=AEBConfig)
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, tuple(SCENARIOS))
@@ -125,6 +129,8 @@ class SimConfig:
             check_choice("methods[i]", m, SENSOR_NAMES + FUSION_METHODS)
         if self.drive is not None:
             check_choice("drive", self.drive, self.methods)
+        if self.aeb.method is not None:
+            check_choice("aeb.method", self.aeb.method, self.methods)
         check_range("tolerance", self.tolerance, 0.0, 60.0)
         check_choice("warn_level", str(self.warn_level), ("1", "2"))
         # Build the specs once so that a bad override fails here, naming the field.
@@ -133,6 +139,12 @@ class SimConfig:
     def sensor_specs(self):
         """The radar and infrared specs with this config's overrides."""
         return radar_spec(**self.radar), infrared_spec(**self.infrared)
+
+    @property
+    def aeb_method(self) -> str:
+        """The method whose in-path estimate AEB reads: ``aeb.method``, else ``drive``, else
+        the last of ``methods``."""
+        return self.aeb.method or self.drive or self.methods[-1]
 
 
 @dataclass
@@ -151,6 +163,8 @@ class StepView:
     relevant: np.ndarray
     driver: Driver | None = None
     """The drivers (closed loop), after their step: their brake requests for this step."""
+    aeb: AEB | None = None
+    """The AEB (``config.aeb.enabled``), after its step: its stage and braking this step."""
 
 
 @dataclass
@@ -162,6 +176,8 @@ class SimResult:
     collided: np.ndarray
     collision_speed: np.ndarray | None
     steps: int
+    aeb: FCWSummary | None = None
+    """AEB's activations classed as the warnings are (a false one: nuisance, sensing-false)."""
 
 
 class _EgoSensors(PairState):
@@ -338,7 +354,8 @@ def simulate(
     warnings_on: bool = True,
     perception: Callable[[SimConfig, int, np.random.SeedSequence], Perception] = Perception,
 ) -> SimResult:
-    """Run ``config``; with ``warnings_on`` false the driver never hears a warning.
+    """Run ``config``; with ``warnings_on`` false the driver never hears a warning and AEB
+    (``config.aeb``) never brakes: no assistance.
 
     ``on_step`` (e.g. a :class:`Trace` or :class:`FirstWarning`) sees every step.  ``source``
     replaces the scripted scenario of ``config`` by another truth source with the same
@@ -356,10 +373,12 @@ def simulate(
         source = make_scenario(
             cfg.scenario, cfg.runs, seed=np.random.default_rng(s_source), **overrides
         )
-    if cfg.drive is not None and not getattr(source, "accepts_brakes", True):
+    closed = cfg.drive is not None or cfg.aeb.enabled
+    if closed and not getattr(source, "accepts_brakes", True):
+        what = f"drive = {cfg.drive!r}" if cfg.drive is not None else "aeb.enabled"
         raise ConfigError(
             f"{type(source).__name__} cannot apply brake requests, so it cannot run a closed "
-            f"loop (drive = {cfg.drive!r}); use a source that does (e.g. SumoSource)"
+            f"loop ({what}); use a source that does (e.g. SumoSource)"
         )
     if cfg.drive is not None and cfg.driver.distraction.rate > 0:
         if not getattr(source, "accepts_hold", False):
@@ -380,8 +399,10 @@ def simulate(
     )
     # With a source of slots (SUMO, highway-env), every stage works on the prefix of slots
     # that holds the vehicles (acc_fusion.core.slots); a scripted batch keeps all its runs.
+    aeb = AEB(cfg.aeb, n, dt) if cfg.aeb.enabled and warnings_on else None
+    aeb_metrics = None if aeb is None else FCWMetrics(n, dt, cfg.tolerance, IMMINENT)
     stages = [perception, *logic.values(), *metrics.values(),
-              *(s for s in (driver, monitor) if s is not None)]  # fmt: skip
+              *(s for s in (driver, monitor, aeb, aeb_metrics) if s is not None)]  # fmt: skip
     extent = Extent(n) if getattr(source, "slotted", False) else Extent(n, quantum=n)
 
     steps = 0
@@ -411,9 +432,16 @@ def simulate(
                     metrics[m].reset(new)
                 if driver is not None:
                     driver.new_vehicles(new, getattr(source, "vehicle_ids", None))
+                if aeb is not None:
+                    aeb.reset(new)
+                    aeb_metrics.reset(new)
             levels = {}
             for m in cfg.methods:
-                levels[m] = logic[m].step(**warning_inputs(p, m, active), attentive=attentive)
+                inputs = warning_inputs(p, m, active)
+                levels[m] = logic[m].step(**inputs, attentive=attentive)
+                if aeb is not None and m == cfg.aeb_method:
+                    aeb_brake = aeb.step(inputs["gap"], inputs["v_ego"], inputs["v_rel"],
+                                         inputs["a_lead"], inputs["valid"], active)  # fmt: skip
                 metrics[m].update(
                     frame.t,
                     levels[m],
@@ -425,18 +453,24 @@ def simulate(
                     p.relevant,
                     None if p.causes is None else p.causes[m],
                 )
+            if aeb is not None:  # AEB's activations classed as the warnings are
+                engaged, cause = (aeb.stage > 0) * np.int8(IMMINENT), p.causes or {}
+                aeb_metrics.update(frame.t, engaged, p.oracle, p.ttc, frame.ego_speed, active,
+                                   collided, p.relevant, cause.get(cfg.aeb_method))  # fmt: skip
             t_last = frame.t
-            brake = None
-            if driver is not None:  # the brake requests of the slots beyond the prefix: none
+            # the brake requests (the slots beyond the prefix: none); the stronger one wins
+            brake = None if driver is None and aeb is None else np.zeros(n)
+            if driver is not None:
                 heard = levels[cfg.drive] if warnings_on else np.zeros(frame.n_pairs, np.int8)
-                brake = np.zeros(n)
                 brake[: frame.n_pairs] = driver.step(heard, frame, p.relevant)
+            if aeb is not None:
+                brake[: frame.n_pairs] = np.maximum(brake[: frame.n_pairs], aeb_brake)
             if on_step is not None:
                 view = (frame, p.measurements, p.estimates, levels, p.oracle, p.ttc, p.relevant)
-                on_step(StepView(*view, driver))
-            if driver is None:
+                on_step(StepView(*view, driver, aeb))
+            if brake is None:
                 source.advance()
-            elif driver.distracts:
+            elif driver is not None and driver.distracts:
                 hold = np.zeros(n, dtype=bool)
                 hold[: frame.n_pairs] = driver.holding
                 source.advance(brake, hold)
@@ -452,8 +486,9 @@ def simulate(
         exc.summaries = {m: metrics[m].summary() for m in cfg.methods}
         raise
     t_end = source.t
-    resize_all(metrics.values(), n)
-    for m in metrics.values():
+    finished = [*metrics.values(), *([] if aeb_metrics is None else [aeb_metrics])]
+    resize_all(finished, n)
+    for m in finished:
         m.finish(t_end, source.collided)
     return SimResult(
         config=cfg,
@@ -461,4 +496,5 @@ def simulate(
         collided=source.collided,
         collision_speed=getattr(source, "collision_speed", None),
         steps=steps,
+        aeb=None if aeb_metrics is None else aeb_metrics.summary(),
     )

@@ -1,6 +1,6 @@
 """Hooks for the ``on_step`` callback of :func:`acc_fusion.sim.closed_loop.simulate`: a run's
-trace step by step (:class:`Trace`) and the true TTC at each run's first warning
-(:class:`FirstWarning`)."""
+trace step by step (:class:`Trace`), the true TTC at each run's first warning
+(:class:`FirstWarning`) and what AEB did in each run (:class:`BrakingRecord`)."""
 
 from __future__ import annotations
 
@@ -74,3 +74,35 @@ class FirstWarning:
                 np.where(has, f.lead_accel, 0.0),
             )  # fmt: skip
             self.ttc[new] = np.where(has, ttc, np.inf)[new]
+
+
+class BrakingRecord(FirstWarning):
+    """Per run, besides :class:`FirstWarning`'s TTC at the first warning: the time of that
+    warning and of AEB's first activation [s] (NaN: none), AEB's peak deceleration and its
+    peak *additional* deceleration over the driver's braking [m/s²] (the quantity FMVSS 127's
+    false-activation tests limit), and the ego's speed at the first activation [m/s]."""
+
+    def __init__(self, n_runs: int, method: str, level: int) -> None:
+        super().__init__(n_runs, method, level)
+        self.warned_at = np.full(n_runs, np.nan)
+        self.braked_at = np.full(n_runs, np.nan)
+        self.speed_at_braking = np.full(n_runs, np.nan)
+        self.peak = np.zeros(n_runs)
+        self.peak_additional = np.zeros(n_runs)
+
+    def __call__(self, view: StepView) -> None:
+        new = np.isnan(self.warned_at) & (view.levels[self.method] >= self.level)
+        self.warned_at[new] = view.frame.t
+        super().__call__(view)
+        if view.aeb is None:
+            return
+        aeb, n = view.aeb, view.frame.n_pairs
+        driver = np.zeros(n)
+        if view.driver is not None:
+            driver = np.where(view.driver.braking, view.driver.deceleration, 0.0)[:n]
+        first = np.isnan(self.braked_at[:n]) & (aeb.stage[:n] > 0)
+        self.braked_at[:n][first] = view.frame.t
+        self.speed_at_braking[:n][first] = view.frame.ego_speed[first]
+        self.peak[:n] = np.maximum(self.peak[:n], aeb.decel[:n])
+        extra = np.maximum(aeb.decel[:n] - driver, 0.0)
+        self.peak_additional[:n] = np.maximum(self.peak_additional[:n], extra)

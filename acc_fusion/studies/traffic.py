@@ -11,6 +11,10 @@ running ahead in a child process; with it the drivers act in both runs (closed l
 warnings when FCW is off).  On request (``ssm``) the FCW-off run also compares the oracle's
 true TTC with the minTTC of SUMO's SSM device, vehicle by vehicle; the device more than
 doubles that run's time (bundled motorway, 300 s: 19 s without it, 44 s with it).
+With ``aeb`` a third run adds automatic emergency braking to the FCW-on run
+(:mod:`acc_fusion.braking.aeb`): its crashes pair with the FCW-off run's as the FCW-on run's
+do, and its AEB activations are classed from truth as the warnings are (an activation outside
+a crash-relevant situation is a false one).
 :meth:`SumoStudy.benefit` pairs the two runs vehicle by vehicle
 (:mod:`acc_fusion.metrics.benefit`); :attr:`SumoStudy.replayed` replays each crash of the
 FCW-off run with each method's warnings (:mod:`acc_fusion.metrics.counterfactual`).
@@ -28,7 +32,7 @@ from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
-from acc_fusion.metrics.summary import FCWSummary, pool_summaries
+from acc_fusion.metrics.summary import CAUSES, FALSE_CLASSES, FCWSummary, pool_summaries
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
@@ -67,7 +71,8 @@ class SumoRun:
     vehicles driven; ``crashes``: the impact speed of each that ran into its lead;
     ``conflicts``: the FCW-off closed loop's record of each crash, for the replay of
     :mod:`acc_fusion.metrics.counterfactual` (``None`` in other runs);
-    ``ssm_pairs``: (oracle, SSM) minimum TTC [s] per vehicle, ``None`` without the cross-check.
+    ``ssm_pairs``: (oracle, SSM) minimum TTC [s] per vehicle, ``None`` without the cross-check;
+    ``aeb``: the AEB's activations by class (a run with AEB, else ``None``).
     """
 
     summaries: dict[str, FCWSummary]
@@ -80,6 +85,7 @@ class SumoRun:
     vehicles: set[str] = field(default_factory=set)
     crashes: dict[str, float] = field(default_factory=dict)
     conflicts: list[ConflictRecord] | None = None
+    aeb: FCWSummary | None = None
 
 
 def _run(
@@ -110,7 +116,7 @@ def _run(
             method = sim.methods[-1]
             hook = chain(hook, lambda view: source.set_warning_colors(view.levels[method]))
         metrics_so_far: dict[str, FCWSummary] = {}
-        error, steps = None, 0
+        error, steps, aeb = None, 0, None
         try:
             run, how = replace(sim, dt=source.dt), {"progress": progress, "on_step": hook}
             if world:
@@ -119,7 +125,7 @@ def _run(
                 )
             else:
                 result = simulate(run, source=source, warnings_on=warnings_on, **how)
-            metrics_so_far, steps = result.summaries, result.steps
+            metrics_so_far, steps, aeb = result.summaries, result.steps, result.aeb
         except SumoError as exc:  # SUMO failed mid-run: report it with what was measured
             error = str(exc)
             metrics_so_far = getattr(exc, "summaries", {})
@@ -138,6 +144,7 @@ def _run(
             crashes.units,
             crashes.crashes,
             list(crashes.conflicts.values()) if history else None,
+            aeb,
         )
 
 
@@ -152,6 +159,8 @@ class SumoStudy:
     """FCW-on runs driven by further methods (``drives`` of :func:`sumo_study`)."""
     driver: DriverConfig = field(default_factory=DriverConfig)
     """The drivers' rules (for the replay of :meth:`replayed`)."""
+    with_aeb: SumoRun | None = None
+    """The FCW-on run with automatic emergency braking added (``aeb`` of :func:`sumo_study`)."""
 
     def ssm_agreement(self) -> dict[str, float] | None:
         """Median relative difference between the oracle's and SSM's minimum TTC; ``None``
@@ -187,6 +196,8 @@ class SumoStudy:
         """SUMO's message of every run that failed, by run (``FCW off``, ``FCW on``, ...)."""
         runs = {"FCW off": self.off, "FCW on": self.on}
         runs |= {f"FCW on ({m})": run for m, run in self.also.items()}
+        if self.with_aeb is not None:
+            runs["FCW + AEB"] = self.with_aeb
         return {label: run.error for label, run in runs.items() if run.error}
 
     def classes(self) -> Table:
@@ -200,9 +211,40 @@ class SumoStudy:
         return benefit_table(title, self.benefit_by_method())
 
     def benefit_by_method(self) -> dict[str, Benefit]:
-        """:meth:`benefit` of every FCW-on run, by the method that drove it."""
+        """:meth:`benefit` of every FCW-on run, by the method that drove it; the run with AEB
+        as ``<method> + AEB``."""
         runs = {self._drive(self.on): self.on, **self.also}
+        if self.with_aeb is not None:
+            runs[f"{self._drive(self.with_aeb)} + AEB"] = self.with_aeb
         return {m: self.benefit(run) for m, run in runs.items()}
+
+    def aeb_table(self) -> Table | None:
+        """The run with AEB: its warnings and its AEB activations by class per 100 km, side
+        by side (``None`` without that run)."""
+        run = self.with_aeb
+        if run is None or run.aeb is None:
+            return None
+        drive = self._drive(run)
+        title = (
+            f"AEB activations and FCW alerts, {self.sumocfg.name}, FCW + AEB on {drive}, "
+            "judged from truth, 95% intervals"
+        )
+        t = class_table(title, {f"FCW alerts ({drive})": run.summaries[drive],
+                                f"AEB activations ({drive})": run.aeb})  # fmt: skip
+        t.notes.append(
+            "an AEB activation outside a crash-relevant situation is a false activation: "
+            "nuisance (the lead is real, the situation not critical) or sensing-false"
+        )
+        by_cause = run.aeb.by_cause
+        if by_cause is not None:
+            false = {k: sum(by_cause[c][k] for c in FALSE_CLASSES) for k in CAUSES}
+            t.notes.append(
+                "false activations by cause: "
+                + ", ".join(f"{k} {n}" for k, n in false.items() if n)
+                if any(false.values())
+                else "no false activation"
+            )
+        return t
 
     def benefit(self, on: SumoRun | None = None, *, seed: int = 0) -> Benefit:
         """The crashes of equipped vehicles that FCW (the run ``on``, default :attr:`on`)
@@ -247,16 +289,17 @@ class SumoStudy:
 
 
 #: The name of the FCW-off run, of the FCW-on run, and the prefix of the FCW-on runs driven by
-#: further methods, in :func:`study_runs`.
-OFF, ON, ALSO = "off", "on", "on:"
+#: further methods, in :func:`study_runs`; the name of the FCW-on run with AEB.
+OFF, ON, ALSO, WITH_AEB = "off", "on", "on:", "aeb"
 
 
 def study_runs(
     sumo_config, sim: SimConfig, *, drives: tuple[str, ...] = (), ssm: bool = False,
-    world: bool = False, progress: bool = False,
+    world: bool = False, progress: bool = False, aeb: bool = False,
 ) -> dict[str, tuple]:  # fmt: skip
     """The runs of a study of ``sumo_config`` (:func:`sumo_study`), by name (:data:`OFF`,
-    :data:`ON`, :data:`ALSO` + method): the arguments of the worker function :func:`run_one`.
+    :data:`ON`, :data:`ALSO` + method, :data:`WITH_AEB` with ``aeb``): the arguments of the
+    worker function :func:`run_one`.
     Only the FCW-off run shows a progress bar, and only the FCW-on run a ``sumo-gui``."""
     drive = sim.drive or sim.methods[-1]
     distracted = sim.driver.distraction.rate > 0
@@ -269,6 +312,10 @@ def study_runs(
 
     runs[ON] = fcw_on(drive, sumo_config)
     runs |= {ALSO + m: fcw_on(m, headless) for m in drives if m != drive}
+    if aeb:
+        braking = replace(sim, aeb=replace(sim.aeb, enabled=True, method=None))
+        runs[WITH_AEB] = (headless, replace(braking, drive=drive, methods=(drive,)), False,
+                          False, True, world)  # fmt: skip
     return runs
 
 
@@ -280,7 +327,9 @@ def run_one(args: tuple) -> SumoRun:
 def assemble(sumo_config, sim: SimConfig, runs: dict[str, SumoRun]) -> SumoStudy:
     """The :class:`SumoStudy` of the runs of :func:`study_runs`, by name."""
     also = {name[len(ALSO) :]: run for name, run in runs.items() if name.startswith(ALSO)}
-    return SumoStudy(Path(sumo_config.sumocfg), runs[OFF], runs[ON], also, sim.driver)
+    return SumoStudy(
+        Path(sumo_config.sumocfg), runs[OFF], runs[ON], also, sim.driver, runs.get(WITH_AEB)
+    )
 
 
 def sumo_study(
@@ -291,15 +340,19 @@ def sumo_study(
     drives: tuple[str, ...] = (),
     ssm: bool = False,
     world: bool = False,
+    aeb: bool = False,
 ) -> SumoStudy:
     """Run ``sumo_config`` with FCW off (every method watching) and on (federated alerts),
     each in its own process, in parallel; ``drives`` adds an FCW-on run per further method
-    (:attr:`SumoStudy.also`); ``ssm`` adds the SSM cross-check to the FCW-off run.  With
+    (:attr:`SumoStudy.also`); ``aeb`` adds the FCW-on run with automatic emergency braking
+    (:attr:`SumoStudy.with_aeb`); ``ssm`` adds the SSM cross-check to the FCW-off run.  With
     ``gui``, the FCW-on run is the one shown in ``sumo-gui`` (vehicles coloured by its
     warning level); the other runs stay headless.  With ``world`` every run perceives with
     the 2-D pipeline (settings ``sim.world``), so its summaries have the alerts by cause and
     the warnings the drivers hear are the 2-D pipeline's."""
-    runs = study_runs(sumo_config, sim, drives=drives, ssm=ssm, world=world, progress=progress)
+    runs = study_runs(
+        sumo_config, sim, drives=drives, ssm=ssm, world=world, progress=progress, aeb=aeb
+    )
     with process_pool(f"SUMO on {sumo_config.sumocfg!r}", 2) as pool:
         futures = {name: pool.submit(run_one, args) for name, args in runs.items()}
         return assemble(sumo_config, sim, {name: f.result() for name, f in futures.items()})
@@ -323,6 +376,9 @@ def pool_runs(runs: dict[int, SumoRun]) -> SumoRun:
     conflicts = None
     if all(runs[k].conflicts is not None for k in seeds):
         conflicts = [c for k in seeds for c in runs[k].conflicts]
+    aeb = None
+    if all(runs[k].aeb is not None for k in seeds):
+        aeb = pool_summaries([runs[k].aeb for k in seeds])
     return SumoRun(
         summaries,
         sum(runs[k].collisions for k in seeds),
@@ -334,6 +390,7 @@ def pool_runs(runs: dict[int, SumoRun]) -> SumoRun:
         {f"{k}:{v}" for k in seeds for v in runs[k].vehicles},
         {f"{k}:{v}": speed for k in seeds for v, speed in runs[k].crashes.items()},
         conflicts,
+        aeb,
     )
 
 
@@ -349,4 +406,5 @@ def pool_studies(studies: dict[int, SumoStudy]) -> SumoStudy:
         pool_runs({k: studies[k].on for k in seeds}),
         also,
         first.driver,
+        None if first.with_aeb is None else pool_runs({k: studies[k].with_aeb for k in seeds}),
     )

@@ -141,9 +141,11 @@ def seeds_study(
     world: bool = False,
     store: Path | None = None,
     progress: bool = True,
+    aeb: bool = False,
 ) -> tuple[SumoStudy, dict[int, SumoStudy]]:
     """The study of ``sumo_config`` on every seed of ``seeds``, run by ``mapper``
-    (:func:`~acc_fusion.sweep.executors.make_map`), pooled; and each seed's own study."""
+    (:func:`~acc_fusion.sweep.executors.make_map`), pooled; and each seed's own study
+    (``aeb``: with the FCW-on run with automatic emergency braking of each seed)."""
     if not seeds:
         raise ConfigError("--seeds names no seed")
     if sumo_config.gui:
@@ -152,7 +154,7 @@ def seeds_study(
     todo, done = [], {}
     for seed in seeds:  # each seed seeds SUMO and the pipeline, as --seed does
         config, sim_k = replace(sumo_config, seed=seed), replace(sim, seed=seed)
-        for name, args in study_runs(config, sim_k, drives=drives, world=world).items():
+        for name, args in study_runs(config, sim_k, drives=drives, world=world, aeb=aeb).items():
             held = runs.load(seed, name) if runs else None
             if held is None:
                 todo.append((seed, name, args))

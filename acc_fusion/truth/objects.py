@@ -41,11 +41,14 @@ class ObjectKind(IntEnum):
     """A guardrail post or other roadside metal."""
     SIGN = 5
     """A roadside sign post."""
+    PLATE = 6
+    """A flat steel plate lying on the road surface (a trench plate, FMVSS 127's false-activation
+    object): stationary, in a lane, driven over (never a collision nor an in-path lead)."""
 
 
 #: Kinds that never move (radar sees them at range-rate ``-ego_speed``).
 STATIONARY_KINDS = (ObjectKind.PARKED, ObjectKind.GANTRY, ObjectKind.BRIDGE,
-                    ObjectKind.GUARDRAIL, ObjectKind.SIGN)  # fmt: skip
+                    ObjectKind.GUARDRAIL, ObjectKind.SIGN, ObjectKind.PLATE)  # fmt: skip
 
 #: ``lane`` of an object that is on no lane (shoulder, roadside, overhead).
 OFF_ROAD = 99

@@ -43,7 +43,10 @@ aspect; e.g. Kamel, Peden & Pezeshki, "RCS modeling and measurements for automot
 applications in the W band", EuCAP 2017); large metal structures (gantries, bridges) return
 far more (assumption: 25 dBsm), a guardrail post little (assumption: 0 dBsm).  Thermal contrasts
 (assumption): a driven car's tyres, exhaust and engine about 10 K above the road, a parked car
-with a cold engine 2 K, unheated steel about 0.5 K.
+with a cold engine 2 K, unheated steel about 0.5 K.  A steel trench plate flat on the road (FMVSS
+127 S9.2: 2.4 m × 3.7 m × 25 mm, 3.7 m along the road) reflects its face away from a radar at
+grazing incidence; its leading edge returns about a straight edge's :math:`L^2/\pi` (2.6 dBsm
+for 2.4 m; Knott, Shaeffer & Tuley, *Radar Cross Section*, 2004) less a grazing loss: 0 dBsm.
 """
 
 from __future__ import annotations
@@ -67,6 +70,7 @@ SIGNATURES: dict[ObjectKind, tuple[float, float, float, float, float]] = {
     ObjectKind.BRIDGE: (10.0, 3 * LANE_WIDTH + 10.0, 1.5, 25.0, 0.5),
     ObjectKind.GUARDRAIL: (0.2, 0.2, 0.8, 0.0, 0.5),
     ObjectKind.SIGN: (0.1, 1.0, 2.0, 5.0, 0.5),
+    ObjectKind.PLATE: (3.7, 2.4, 0.025, 0.0, 0.5),
 }
 
 #: Longest range of the forward field the scenes report [m] (beyond any sensor's range).
@@ -81,6 +85,10 @@ GUARDRAIL_OFFSET = -(LANE_WIDTH / 2 + 3.0)
 SHOULDER_OFFSET = -(LANE_WIDTH / 2 + 1.5)
 #: Grid step of the road geometry [m].
 _DS = 0.5
+#: Length and width of the ego (the subject vehicle) [m]: a vehicle's (:data:`SIGNATURES`).
+EGO_LENGTH, EGO_WIDTH = SIGNATURES[ObjectKind.VEHICLE][:2]
+#: The ego models of a :class:`Scene` and its rules for the in-path lead.
+EGO_MODELS, LEAD_RULES = ("idm", "cruise"), ("lane", "overlap")
 
 
 @dataclass(frozen=True)
@@ -130,12 +138,14 @@ class _Geometry:
 
 @dataclass
 class Actors:
-    """Scripted actors, arrays ``(N, A)`` (runs × actors).
+    r"""Scripted actors, arrays ``(N, A)`` (runs × actors).
 
     A vehicle's centre moves along the road at speed ``v0`` until ``brake_time``, then slows
-    at ``brake_decel`` to a stop; its lateral offset moves from ``d0`` to ``d1`` between
-    ``lc_time`` and ``lc_time + lc_duration`` (a cosine blend).  Stationary objects have
-    ``v0 = 0``.  ``clearance`` is the height of the lower edge above its road [m].
+    at ``brake_decel`` (reached linearly over ``brake_rise``, 0: a step) to a stop; its lateral
+    offset moves from ``d0`` to ``d1`` between ``lc_time`` and ``lc_time + lc_duration`` (a
+    cosine blend).  Stationary objects have ``v0 = 0``.  ``clearance`` is the height of the
+    lower edge above its road [m].  ``present`` (bool; ``None``: all) marks the actors a run
+    has (absent ones pad a batch whose runs differ: in no frame, never a lead).
     """
 
     kind: np.ndarray
@@ -148,11 +158,15 @@ class Actors:
     lc_time: np.ndarray
     lc_duration: np.ndarray
     clearance: np.ndarray
+    brake_rise: np.ndarray | None = None
+    present: np.ndarray | None = None
 
-    def centre(self, t: float) -> tuple[np.ndarray, ...]:
-        """Arc length, speed, acceleration, lateral offset and its rate at time ``t``."""
+    def centre(self, t: float | np.ndarray) -> tuple[np.ndarray, ...]:
+        """Arc length, speed, acceleration, lateral offset and its rate at time ``t`` (or at
+        each run's own time, ``(N, 1)``)."""
         tb = np.minimum(t, self.brake_time)
         tau = np.maximum(t - self.brake_time, 0.0)
+        ramped = self._ramped(t, tb, tau)
         stop = np.divide(self.v0, self.brake_decel, out=np.full_like(self.v0, np.inf),
                          where=self.brake_decel > 0)  # fmt: skip
         tau = np.minimum(tau, stop)
@@ -160,6 +174,9 @@ class Actors:
         s = self.s0 + self.v0 * tb + self.v0 * tau - 0.5 * self.brake_decel * tau**2
         braking = (t > self.brake_time) & (tau < stop)
         a = np.where(braking, -self.brake_decel, 0.0)
+        if ramped is not None:
+            ramp = self.brake_rise > 0.0
+            s, v, a = (np.where(ramp, r, x) for r, x in zip(ramped, (s, v, a), strict=True))
         u = np.clip((t - self.lc_time) / self.lc_duration, 0.0, 1.0)
         d = self.d0 + (self.d1 - self.d0) * 0.5 * (1.0 - np.cos(np.pi * u))
         inside = (u > 0.0) & (u < 1.0)
@@ -170,11 +187,27 @@ class Actors:
         )
         return s, v, a, d, d_rate
 
+    def _ramped(self, t, tb, tau) -> tuple[np.ndarray, ...] | None:
+        """Arc length, speed and acceleration of braking with the ramp (``None`` without)."""
+        if self.brake_rise is None or not np.any(self.brake_rise > 0.0):
+            return None
+        v0, dec, r = self.v0, self.brake_decel, np.maximum(self.brake_rise, 1e-9)
+        safe = np.where(dec > 0.0, dec, 1.0)
+        short = np.sqrt(2.0 * r * v0 / safe)  # it stops within the ramp (v0 <= D R / 2)
+        stop = np.where(dec > 0.0, np.where(v0 <= 0.5 * dec * r, short, v0 / safe + r / 2), np.inf)
+        tau = np.minimum(tau, stop)
+        t1, t2 = np.minimum(tau, r), np.maximum(tau - r, 0.0)
+        v1 = v0 - dec * t1**2 / (2.0 * r)
+        x = v0 * t1 - dec * t1**3 / (6.0 * r) + v1 * t2 - 0.5 * dec * t2**2
+        a = np.where((t > self.brake_time) & (tau < stop), -dec * np.minimum(tau / r, 1.0), 0.0)
+        return self.s0 + v0 * tb + x, np.maximum(v1 - dec * t2, 0.0), a
+
 
 def _actors(n: int, specs: list[dict[str, object]]) -> Actors:
     """Stack actor specs (scalars or ``(n,)`` arrays per field) into :class:`Actors`."""
     defaults = {"v0": 0.0, "d0": 0.0, "brake_time": np.inf, "brake_decel": 0.0,
-                "lc_time": np.inf, "lc_duration": 1.0, "clearance": 0.0}  # fmt: skip
+                "lc_time": np.inf, "lc_duration": 1.0, "clearance": 0.0, "brake_rise": 0.0,
+                "present": 1.0}  # fmt: skip
     columns: dict[str, list[np.ndarray]] = {k: [] for k in Actors.__dataclass_fields__}
     for spec in specs:
         full = {**defaults, **spec}
@@ -183,12 +216,17 @@ def _actors(n: int, specs: list[dict[str, object]]) -> Actors:
             columns[key].append(np.broadcast_to(np.asarray(full[key], dtype=float), (n,)))
     arrays = {k: np.stack(v, axis=1) for k, v in columns.items()}
     arrays["kind"] = arrays["kind"].astype(np.int8)
+    arrays["present"] = arrays["present"] != 0.0
     return Actors(**arrays)
 
 
 @dataclass
 class Scene:
-    """A scene batched over N runs: the road, the actors, the ego's start and IDM settings."""
+    """A scene batched over N runs: the road, the actors, the ego's start and driving: the IDM
+    behind the in-path lead (``ego_model = "idm"``, ``ego_desired_speed``, ``ego_headway``) or
+    a constant speed (``"cruise"``, a test driver); the lead is the nearest vehicle ahead in
+    the ego's lane (``lead_rule = "lane"``) or whose body overlaps the ego's laterally,
+    :math:`|d| < (w + W_e)/2` (``"overlap"``)."""
 
     name: str
     road: Road
@@ -197,6 +235,12 @@ class Scene:
     ego_desired_speed: np.ndarray
     ego_headway: np.ndarray
     duration: float
+    ego_model: str = "idm"
+    lead_rule: str = "lane"
+
+    def __post_init__(self) -> None:
+        check_choice("ego_model", self.ego_model, EGO_MODELS)
+        check_choice("lead_rule", self.lead_rule, LEAD_RULES)
 
 
 def _guardrail(n: int, road: Road) -> list[dict[str, object]]:
@@ -321,39 +365,54 @@ class SceneConfig:
 class SceneSource:
     """A scene as a truth source: :meth:`frame` is the :class:`ObjectFrame` of the current
     step, :meth:`advance` moves one step (the egos by the IDM behind their true in-path
-    lead).  ``collided`` marks runs whose ego reached its lead; a collided ego stops."""
+    lead, or at constant speed).  ``collided`` marks runs whose ego reached its lead (it then
+    moves with it).  ``active``: the runs going on; all, unless a subclass ends runs at
+    ``_end_t`` (:class:`acc_fusion.truth.procedures.ProcedureSource`)."""
 
     def __init__(self, config: SceneConfig, seed: int | np.random.Generator | None = None):
         rng = np.random.default_rng(seed)
-        self.config = config
-        self.scene = SCENES[config.scene](config.runs, rng)
-        self._geo = _Geometry(self.scene.road)
-        n = config.runs
+        self.config: SceneConfig | None = config
+        self._setup(SCENES[config.scene](config.runs, rng), config.dt)
+
+    def _setup(self, scene: Scene, dt: float) -> None:
+        self.scene, self.dt = scene, dt
+        self._geo = _Geometry(scene.road)
+        n = scene.ego_speed.shape[0]
         self.t = 0.0
-        self._s = np.zeros(n)  # ego front bumper
-        self._v = self.scene.ego_speed.astype(float).copy()
-        self._a = np.zeros(n)
-        self.collided = np.zeros(n, dtype=bool)
-        self.active = np.ones(n, dtype=bool)
-        kinds = self.scene.actors.kind
+        self._s, self._a = np.zeros(n), np.zeros(n)  # ego front bumper, acceleration
+        self._v = scene.ego_speed.astype(float).copy()
+        self.collided, self.active = np.zeros(n, dtype=bool), np.ones(n, dtype=bool)
+        self._collision_speed = np.full(n, np.nan)
+        self._end_t = np.full(n, np.inf)  # when each run ended
         table = np.array([SIGNATURES[ObjectKind(k)] for k in range(len(ObjectKind))])
-        self._sig = table[kinds]  # (N, A, 5)
+        self._sig = table[scene.actors.kind]  # (N, A, 5)
+        present = scene.actors.present  # (N, A): actors a run has
+        self._present = np.ones(self._sig.shape[:2], bool) if present is None else present
+
+    @property
+    def collision_speed(self) -> np.ndarray:
+        """``(N,)`` closing speed at each run's first collision [m/s], NaN where none."""
+        return self._collision_speed.copy()
 
     @property
     def n_steps(self) -> int:
         """Steps in the scene."""
-        return int(round(self.scene.duration / self.config.dt))
+        return int(round(self.scene.duration / self.dt))
 
     @property
     def done(self) -> bool:
-        """The scene's duration has passed."""
-        return self.t >= self.scene.duration - 1e-9
+        """The scene's duration has passed, or every run has ended."""
+        return self.t >= self.scene.duration - 1e-9 or not self.active.any()
 
     def _lead(self, s, d, kind) -> tuple[np.ndarray, np.ndarray]:
         """The true in-path lead of each ego (slot, ``-1``) and the gap to it [m]."""
         length = self._sig[..., 0]
         rear = s - length / 2
-        in_lane = (kind == ObjectKind.VEHICLE) & (np.rint(d / LANE_WIDTH) == 0)
+        vehicle = (kind == ObjectKind.VEHICLE) & self._present
+        if self.scene.lead_rule == "lane":
+            in_lane = vehicle & (np.rint(d / LANE_WIDTH) == 0)
+        else:  # the bodies overlap laterally
+            in_lane = vehicle & (np.abs(d) < (self._sig[..., 1] + EGO_WIDTH) / 2)
         ahead = in_lane & (rear > self._s[:, None] - 1.0)
         gap = np.where(ahead, rear - self._s[:, None], np.inf)
         lead = np.argmin(gap, axis=1)
@@ -363,7 +422,8 @@ class SceneSource:
     def frame(self) -> ObjectFrame:
         """The objects ahead of each ego now."""
         geo, act = self._geo, self.scene.actors
-        s, v, a, d, d_rate = act.centre(self.t)
+        t_act = self.t if self.active.all() else np.minimum(self.t, self._end_t)[:, None]
+        s, v, a, d, d_rate = act.centre(t_act)  # an ended run's actors at its end
         lead, _ = self._lead(s, d, act.kind)
         length, width, height, rcs, contrast = np.moveaxis(self._sig, -1, 0)
         se = self._s[:, None]
@@ -382,11 +442,11 @@ class SceneSource:
         vx, vy = c * gvx + sn * gvy, -sn * gvx + c * gvy
         z_e, grade_e = geo.at("z", self._s)[:, None], geo.at("grade", self._s)[:, None]
         elevation = act.clearance + geo.at("z", s) - z_e - grade_e * (s - se)
-        vehicle = act.kind == ObjectKind.VEHICLE
-        lane = np.where(vehicle, np.rint(d / LANE_WIDTH), OFF_ROAD).astype(np.int64)
-        valid = (x > 0.0) & (x <= FIELD_RANGE) & (np.abs(y) <= FIELD_HALF_WIDTH)
+        on_lane = (act.kind == ObjectKind.VEHICLE) | (act.kind == ObjectKind.PLATE)
+        lane = np.where(on_lane, np.rint(d / LANE_WIDTH), OFF_ROAD).astype(np.int64)
+        valid = (x > 0.0) & (x <= FIELD_RANGE) & (np.abs(y) <= FIELD_HALF_WIDTH) & self._present
         rows = np.arange(lead.shape[0])
-        lead = np.where((lead >= 0) & valid[rows, np.maximum(lead, 0)], lead, -1)
+        lead = np.where((lead >= 0) & valid[rows, np.maximum(lead, 0)] & self.active, lead, -1)
         n_actors = act.kind.shape[1]
         kappa = geo.at("kappa", self._s)
         yaw = kappa * self._v
@@ -401,27 +461,39 @@ class SceneSource:
         )  # fmt: skip
 
     def advance(self, ego_brake: np.ndarray | None = None) -> None:
-        r"""One step: the egos follow their leads with the IDM; a gap <= 0 is a collision.
+        r"""One step: the egos follow their leads with the IDM (or hold their speed); a gap
+        <= 0 is a collision.
 
-        ``ego_brake (N,)`` [m/s², >= 0] is the deceleration a driver requests (reacting to a
-        warning, :class:`acc_fusion.truth.driver.Driver`); where it is positive the ego
-        brakes at least that hard: :math:`a = \min(a_\text{IDM}, -b)`.  ``None``: the IDM alone.
+        ``ego_brake (N,)`` [m/s², >= 0] is the deceleration a driver (reacting to a warning,
+        :class:`acc_fusion.truth.driver.Driver`) or an AEB requests; where it is positive the
+        ego brakes at least that hard: :math:`a = \min(a_\text{IDM}, -b)` (a cruising ego:
+        :math:`-b`, and it keeps its speed when the request ends).  ``None``: no request.
         """
-        dt, act, sc = self.config.dt, self.scene.actors, self.scene
+        dt, act = self.dt, self.scene.actors
         s, v, _, d, _ = act.centre(self.t)
         lead, gap = self._lead(s, d, act.kind)
         has = lead >= 0
         rows = np.arange(lead.shape[0])
         v_lead = np.where(has, v[rows, np.maximum(lead, 0)], self._v)
         hit = has & (gap <= 0.0)
+        first = hit & ~self.collided
+        self._collision_speed[first] = (self._v - v_lead)[first]
         self.collided |= hit
-        accel = IDM.accel(self._v, sc.ego_desired_speed, sc.ego_headway, gap, v_lead, has)
-        if ego_brake is not None:
-            brake = np.asarray(ego_brake, dtype=float)
-            accel = np.where(brake > 0.0, np.minimum(accel, -brake), accel)
-        accel = np.where(self.collided, 0.0, accel)
+        accel = np.where(self.collided, 0.0, self._accel(gap, v_lead, has, ego_brake))
         v_new = np.maximum(self._v + accel * dt, 0.0)
         self._a = np.where(self.collided, 0.0, (v_new - self._v) / dt)  # over this step
         self._v = np.where(self.collided, v_lead, v_new)
         self._s += self._v * dt
         self.t += dt
+
+    def _accel(self, gap, v_lead, has, ego_brake) -> np.ndarray:
+        """The egos' acceleration by the ego model, with the brake requests."""
+        sc = self.scene
+        if sc.ego_model == "idm":
+            accel = IDM.accel(self._v, sc.ego_desired_speed, sc.ego_headway, gap, v_lead, has)
+        else:
+            accel = np.zeros_like(self._v)
+        if ego_brake is not None:
+            brake = np.asarray(ego_brake, dtype=float)
+            accel = np.where(brake > 0.0, np.minimum(accel, -brake), accel)
+        return accel

@@ -71,6 +71,13 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
     )
     add_executor_arguments(p, "with --seeds: ")
     p.add_argument(
+        "--aeb",
+        action="store_true",
+        help="add a run with automatic emergency braking after the warning (FCW + AEB, "
+        "settings [aeb] of --config): its crashes beside FCW alone's, and its activations "
+        "by class and cause per 100 km beside the warnings'",
+    )
+    p.add_argument(
         "--conditions",
         nargs="+",
         metavar="C",
