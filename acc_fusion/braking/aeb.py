@@ -185,6 +185,11 @@ class AEB(PairState):
         # commands on their way to the wheels: the dead time in steps, plus this step's
         self._queue = np.zeros((n, int(round(config.delay / dt)) + 1))
         self._k = 0  # the queue's column of this step's command
+        c = config  # the kernel's parameters (_decide)
+        self._prm = np.array([c.partial_trigger, c.full_trigger, c.partial_decel, c.full_decel,
+                              c.min_speed, c.max_speed, c.jerk * dt, STOPPED])  # fmt: skip
+        self._steps = np.array([_steps(c.confirm, dt), _steps(c.standstill_hold, dt),
+                                _steps(c.lost_hold, dt)])  # fmt: skip
 
     def _resized(self, m: int) -> None:
         self.n = m
@@ -210,19 +215,13 @@ class AEB(PairState):
         ttc = urgency(np.where(has, gap, 1.0), v, lead_now, np.where(has, a_lead, 0.0))[1]
         urgent = has & (ttc <= c.ttc_trigger)
         overridden = np.zeros(n, bool) if override is None else np.asarray(override, bool)
-        dt = self.dt
-        prm = np.array([c.partial_trigger, c.full_trigger, c.partial_decel, c.full_decel,
-                        c.min_speed, c.max_speed, c.jerk * dt, STOPPED])  # fmt: skip
-        steps = np.array([_steps(c.confirm, dt), _steps(c.standstill_hold, dt),
-                          _steps(c.lost_hold, dt)])  # fmt: skip
         self._k = (self._k + 1) % self._queue.shape[1]
         # the object no longer closes and needs, and does, no hard braking: the threat is over
         over = has & (np.asarray(v_rel) >= 0.0) & (self.required < c.release_below)
         over &= np.asarray(a_lead) > -c.release_below
-        _decide(self.required, has, urgent, np.asarray(active, bool), v, over, overridden, prm,
-                steps,
-                self.stage, self._held, self._lost, self._still, self._queue, self._k,
-                self.decel)  # fmt: skip
+        _decide(self.required, has, urgent, np.asarray(active, bool), v, over, overridden,
+                self._prm, self._steps, self.stage, self._held, self._lost, self._still,
+                self._queue, self._k, self.decel)  # fmt: skip
         return self.decel
 
 

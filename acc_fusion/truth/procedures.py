@@ -81,6 +81,7 @@ from acc_fusion.truth.scenes import (
     SceneSource,
     _actors,
     _guardrail,
+    ramp_braking,
 )
 
 #: The kinds of test point.
@@ -121,17 +122,6 @@ PASS_THROUGH_OFFSET = PASS_THROUGH_SPACING / 2 + POV_WIDTH / 2
 #: from within a TTC of :data:`L0_TTC` stops within that TTC after it, then stands still.
 SETTLE = L0_TTC + REST_TIME
 _SPEED, _TIME = 60.0, 600.0  # highest speed [m/s] and longest time [s] accepted
-
-
-def _pov_stop(v0: float, decel: float, rise: float) -> tuple[float, float]:
-    """Time [s] and distance [m] to a stop of a POV at ``v0`` braking with a deceleration
-    rising to ``decel`` over ``rise`` (:class:`~acc_fusion.truth.scenes.Actors`)."""
-    if rise > 0.0 and v0 <= 0.5 * decel * rise:
-        tau = math.sqrt(2.0 * rise * v0 / decel)
-        return tau, v0 * tau - decel * tau**3 / (6.0 * rise)
-    tau, v1 = v0 / decel + rise / 2, v0 - 0.5 * decel * rise
-    t2 = tau - rise
-    return tau, v0 * rise - decel * rise**2 / 6.0 + v1 * t2 - 0.5 * decel * t2**2
 
 
 @dataclass(frozen=True)
@@ -211,7 +201,8 @@ class TestPoint:
             length = PLATE_LENGTH if self.kind == "plate" else POV_LENGTH
             return (self.gap + length + POV_LENGTH) / sv + REST_TIME
         if self.kind == "decelerating":
-            t_stop, x_stop = _pov_stop(self.pov_speed, self.pov_decel, self.pov_decel_rise)
+            x_stop, _, _, t_stop = (float(x) for x in ramp_braking(
+                self.pov_speed, self.pov_decel, self.pov_decel_rise, np.inf))  # fmt: skip
             t_b = float(self.pov_brake_time)
             reach = (self.gap + self.pov_speed * t_b + x_stop) / sv
             return max(reach, t_b + t_stop) + SETTLE

@@ -166,7 +166,6 @@ class Actors:
         each run's own time, ``(N, 1)``)."""
         tb = np.minimum(t, self.brake_time)
         tau = np.maximum(t - self.brake_time, 0.0)
-        ramped = self._ramped(t, tb, tau)
         stop = np.divide(self.v0, self.brake_decel, out=np.full_like(self.v0, np.inf),
                          where=self.brake_decel > 0)  # fmt: skip
         tau = np.minimum(tau, stop)
@@ -174,33 +173,32 @@ class Actors:
         s = self.s0 + self.v0 * tb + self.v0 * tau - 0.5 * self.brake_decel * tau**2
         braking = (t > self.brake_time) & (tau < stop)
         a = np.where(braking, -self.brake_decel, 0.0)
-        if ramped is not None:
-            ramp = self.brake_rise > 0.0
-            s, v, a = (np.where(ramp, r, x) for r, x in zip(ramped, (s, v, a), strict=True))
+        if self.brake_rise is not None and np.any(self.brake_rise > 0.0):  # ramped braking
+            x, vr, dr, _ = ramp_braking(self.v0, self.brake_decel, self.brake_rise, t - tb)
+            on = self.brake_rise > 0.0
+            s, v = np.where(on, self.s0 + self.v0 * tb + x, s), np.where(on, vr, v)
+            a = np.where(on, np.where(t > self.brake_time, -dr, 0.0), a)
         u = np.clip((t - self.lc_time) / self.lc_duration, 0.0, 1.0)
         d = self.d0 + (self.d1 - self.d0) * 0.5 * (1.0 - np.cos(np.pi * u))
         inside = (u > 0.0) & (u < 1.0)
-        d_rate = np.where(
-            inside,
-            (self.d1 - self.d0) * 0.5 * np.pi * np.sin(np.pi * u) / self.lc_duration,
-            0.0,
-        )
-        return s, v, a, d, d_rate
+        rate = (self.d1 - self.d0) * 0.5 * np.pi * np.sin(np.pi * u) / self.lc_duration
+        return s, v, a, d, np.where(inside, rate, 0.0)
 
-    def _ramped(self, t, tb, tau) -> tuple[np.ndarray, ...] | None:
-        """Arc length, speed and acceleration of braking with the ramp (``None`` without)."""
-        if self.brake_rise is None or not np.any(self.brake_rise > 0.0):
-            return None
-        v0, dec, r = self.v0, self.brake_decel, np.maximum(self.brake_rise, 1e-9)
-        safe = np.where(dec > 0.0, dec, 1.0)
-        short = np.sqrt(2.0 * r * v0 / safe)  # it stops within the ramp (v0 <= D R / 2)
-        stop = np.where(dec > 0.0, np.where(v0 <= 0.5 * dec * r, short, v0 / safe + r / 2), np.inf)
-        tau = np.minimum(tau, stop)
-        t1, t2 = np.minimum(tau, r), np.maximum(tau - r, 0.0)
-        v1 = v0 - dec * t1**2 / (2.0 * r)
-        x = v0 * t1 - dec * t1**3 / (6.0 * r) + v1 * t2 - 0.5 * dec * t2**2
-        a = np.where((t > self.brake_time) & (tau < stop), -dec * np.minimum(tau / r, 1.0), 0.0)
-        return self.s0 + v0 * tb + x, np.maximum(v1 - dec * t2, 0.0), a
+
+def ramp_braking(v0, decel, rise, tau) -> tuple[np.ndarray, ...]:
+    """Braking from ``v0`` [m/s], the deceleration rising linearly to ``decel`` [m/s²] over
+    ``rise`` [s]: after ``tau`` [s] (``inf``: to the stop), the distance [m], speed [m/s] and
+    deceleration [m/s²] (0 once stopped); and the time to the stop [s]."""
+    v0, dec, r = np.asarray(v0, dtype=float), np.asarray(decel, dtype=float), np.maximum(rise, 1e-9)
+    safe = np.where(dec > 0.0, dec, 1.0)
+    short = np.sqrt(2.0 * r * v0 / safe)  # it stops within the ramp (v0 <= D R / 2)
+    stop = np.where(dec > 0.0, np.where(v0 <= 0.5 * dec * r, short, v0 / safe + r / 2), np.inf)
+    tau = np.minimum(tau, stop)
+    t1, t2 = np.minimum(tau, r), np.maximum(tau - r, 0.0)
+    v1 = v0 - dec * t1**2 / (2.0 * r)
+    x = v0 * t1 - dec * t1**3 / (6.0 * r) + v1 * t2 - 0.5 * dec * t2**2
+    decel_now = np.where(tau < stop, dec * np.minimum(tau / r, 1.0), 0.0)
+    return x, np.maximum(v1 - dec * t2, 0.0), decel_now, stop
 
 
 def _actors(n: int, specs: list[dict[str, object]]) -> Actors:
