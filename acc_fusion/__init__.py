@@ -1,9 +1,10 @@
 """acc_fusion: forward-collision-warning research by simulation.
 
-Importing the package registers the gymnasium environments ``acc_fusion/CollisionWarning-v0``
-and ``acc_fusion/CollisionWarningWorld-v0`` (gymnasium 1.x has no plugin entry points).  The
-package is laid out by pipeline stage: ``core`` < ``truth`` < ``sensors`` < ``filters`` <
-``fusion`` < ``warning`` < ``metrics`` < ``sim`` < ``studies`` < ``envs`` | ``sweep`` <
+Importing the package registers the gymnasium environments ``acc_fusion/CollisionWarning-v0``,
+``acc_fusion/CollisionAvoidance-v0`` and ``acc_fusion/CollisionWarningWorld-v0`` (gymnasium
+1.x has no plugin entry points).  The package is laid out by pipeline stage: ``core`` <
+``truth`` < ``sensors`` < ``filters`` < ``fusion`` < ``warning`` < ``metrics`` | ``braking`` <
+``sim`` < ``studies`` < ``envs`` | ``sweep`` <
 ``cli``; a stage imports only the stages below it (checked by ``lint-imports``).
 """
 
@@ -22,6 +23,12 @@ def _register_envs(gymnasium) -> None:
             id="acc_fusion/CollisionWarning-v0",
             entry_point="acc_fusion.envs.collision_warning:CollisionWarningEnv",
             vector_entry_point="acc_fusion.envs.collision_warning:CollisionWarningVectorEnv",
+        )
+    if "acc_fusion/CollisionAvoidance-v0" not in gymnasium.registry:
+        gymnasium.register(
+            id="acc_fusion/CollisionAvoidance-v0",
+            entry_point="acc_fusion.envs.braking:CollisionAvoidanceEnv",
+            vector_entry_point="acc_fusion.envs.braking:CollisionAvoidanceVectorEnv",
         )
     if "acc_fusion/CollisionWarningWorld-v0" not in gymnasium.registry:
         gymnasium.register(

@@ -32,6 +32,7 @@ EXAMPLES = {
     "scripted_study.py": ["--runs", "10"],
     "sumo_study.py": ["--end", "20"],
     "gym_sb3.py": ["--timesteps", "512", "--episodes", "1"],
+    "gym_braking_ppo.py": ["--timesteps", "4096", "--episodes", "2"],
     "sweep.py": ["--runs", "4", "--out", "out/example_sweep"],
     "rllib_sumo_ppo.py": [
         "--iterations",

@@ -47,7 +47,14 @@ def needs(*modules: str) -> None:
             pytest.skip(f"needs {module}")
 
 
-TESTED = ("gym_sb3.py", "rllib_sumo_ppo.py", "scripted_study.py", "sumo_study.py", "sweep.py")
+TESTED = (
+    "gym_braking_ppo.py",
+    "gym_sb3.py",
+    "rllib_sumo_ppo.py",
+    "scripted_study.py",
+    "sumo_study.py",
+    "sweep.py",
+)
 
 
 def test_every_example_is_tested_and_says_how_to_run_it():
@@ -79,6 +86,14 @@ def test_gym_sb3():
     assert "trained PPO for 512 steps" in out
     for policy in ("ppo", "ttc", "never_warn"):
         assert re.search(rf"^{policy}\s+\d+", out, flags=re.M), policy
+
+
+def test_gym_braking_ppo():
+    needs("stable_baselines3")
+    out = run_example("gym_braking_ppo.py", "--timesteps", "4096", "--episodes", "2")
+    assert re.search(r"trained PPO for \d+ steps", out)
+    for policy in ("ppo", "never", "safety_distance", "rule", "rule\\+aeb"):
+        assert re.search(rf"^{policy}\s+\d+/2", out, flags=re.M), policy
 
 
 def test_sweep(tmp_path):

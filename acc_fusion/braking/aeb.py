@@ -215,13 +215,25 @@ class AEB(PairState):
         ttc = urgency(np.where(has, gap, 1.0), v, lead_now, np.where(has, a_lead, 0.0))[1]
         urgent = has & (ttc <= c.ttc_trigger)
         overridden = np.zeros(n, bool) if override is None else np.asarray(override, bool)
-        self._k = (self._k + 1) % self._queue.shape[1]
         # the object no longer closes and needs, and does, no hard braking: the threat is over
         over = has & (np.asarray(v_rel) >= 0.0) & (self.required < c.release_below)
         over &= np.asarray(a_lead) > -c.release_below
-        _decide(self.required, has, urgent, np.asarray(active, bool), v, over, overridden,
-                self._prm, self._steps, self.stage, self._held, self._lost, self._still,
-                self._queue, self._k, self.decel)  # fmt: skip
+        active = np.asarray(active, bool)
+        _decide(self.required, has, urgent, active, v, over, overridden, self._prm,
+                self._steps, self.stage, self._held, self._lost, self._still)  # fmt: skip
+        return self._brake(active)
+
+    def actuate(self, stage, active) -> np.ndarray:
+        """The brake system alone, commanded by another decision (e.g. a policy): each
+        vehicle's ``stage`` (:data:`OFF`, :data:`PARTIAL`, :data:`FULL`) becomes its
+        command; the deceleration [m/s², >= 0] the brakes produce this step."""
+        active = np.asarray(active, bool)
+        self.stage = np.where(active, np.asarray(stage, np.int8), OFF).astype(np.int8)
+        return self._brake(active)
+
+    def _brake(self, active: np.ndarray) -> np.ndarray:
+        self._k = (self._k + 1) % self._queue.shape[1]
+        _actuate(self.stage, active, self._prm, self._queue, self._k, self.decel)
         return self.decel
 
 
@@ -245,26 +257,19 @@ def _predicted(gap, v, v_rel, a_lead, has, t):
 
 @njit(cache=True)
 def _decide(
-    required, has, urgent, active, v, over, override, prm, steps, stage, held, lost, still,
-    queue, k, decel,
+    required, has, urgent, active, v, over, override, prm, steps, stage, held, lost, still
 ):  # pragma: no cover - compiled  # fmt: skip
-    """The stage machine and the brakes of every vehicle (module docstring, steps 2-4).
-    ``prm``: triggers, decelerations, speed range, the deceleration change per step, the
-    speed of a stopped ego; ``urgent`` where the TTC trigger holds, ``over`` where the threat
-    is over;
-    ``steps``: confirm, standstill hold and lost hold in steps; ``queue[:, k]`` takes this
-    step's command, ``queue[:, k+1]`` (cyclic) is the one that reaches the wheels."""
-    partial_trigger, full_trigger, partial_decel, full_decel = prm[0], prm[1], prm[2], prm[3]
-    min_speed, max_speed, rate, stopped = prm[4], prm[5], prm[6], prm[7]
+    """The stage machine of every vehicle (module docstring, steps 2-3).  ``prm``: triggers,
+    decelerations, speed range, the deceleration change per step, the speed of a stopped ego;
+    ``urgent`` where the TTC trigger holds, ``over`` where the threat is over; ``steps``:
+    confirm, standstill hold and lost hold in steps."""
+    partial_trigger, full_trigger, partial_decel = prm[0], prm[1], prm[2]
+    min_speed, max_speed, stopped = prm[4], prm[5], prm[7]
     confirm, standstill, lost_hold = steps[0], steps[1], steps[2]
-    width = queue.shape[1]
     for i in range(required.size):
         if not active[i]:
             stage[i] = 0
             held[i] = lost[i] = still[i] = 0
-            for j in range(width):
-                queue[i, j] = 0.0
-            decel[i] = 0.0
             continue
         want = 0
         if has[i]:
@@ -288,11 +293,21 @@ def _decide(
             still[i] = still[i] + 1 if v[i] <= stopped else 0
             if override[i] or over[i] or lost[i] >= lost_hold or still[i] >= standstill:
                 stage[i] = 0
-        cmd = 0.0
-        if stage[i] == 1:
-            cmd = partial_decel
-        elif stage[i] == 2:
-            cmd = full_decel
-        queue[i, k] = cmd
+
+
+@njit(cache=True)
+def _actuate(stage, active, prm, queue, k, decel):  # pragma: no cover - compiled
+    """The brakes of every vehicle (module docstring, step 4): ``queue[:, k]`` takes the
+    command of this step's ``stage``, ``queue[:, k+1]`` (cyclic) is the one that reaches the
+    wheels, and the deceleration moves toward it by at most ``prm[6]``; an inactive vehicle's
+    brakes are released at once."""
+    width = queue.shape[1]
+    for i in range(stage.size):
+        if not active[i]:
+            for j in range(width):
+                queue[i, j] = 0.0
+            decel[i] = 0.0
+            continue
+        queue[i, k] = prm[2] if stage[i] == 1 else prm[3] if stage[i] == 2 else 0.0
         target = queue[i, (k + 1) % width]
-        decel[i] = min(max(target, decel[i] - rate), decel[i] + rate)
+        decel[i] = min(max(target, decel[i] - prm[6]), decel[i] + prm[6])

@@ -155,6 +155,8 @@ class CollisionWarningEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+    #: The simulation behind the environment (a subclass adds to what a step does).
+    _core_class = _Core
 
     def __init__(
         self,
@@ -217,7 +219,7 @@ class CollisionWarningEnv(gym.Env):
         source = None
         if self._traffic is not None:
             source = self._traffic.next_episode(self.np_random, restart=seed is not None)
-        self._core = _Core(
+        self._core = self._core_class(
             1, self.scenario, self.config, self.reward_config, self.np_random, source
         )
         self._history = []
@@ -227,7 +229,8 @@ class CollisionWarningEnv(gym.Env):
     def step(self, action):
         _check_step(self._core is not None, action, self.action_space)
         core = self._core
-        self._history.append((core.t, core.fused_gap[0], core.d_imminent()[0], int(action)))
+        level = int(np.asarray(action).reshape(-1)[0])  # the warning (first entry)
+        self._history.append((core.t, core.fused_gap[0], core.d_imminent()[0], level))
         del self._history[:-400]
         try:
             reward = core.act(np.array([action], dtype=np.int8))
@@ -290,6 +293,8 @@ class CollisionWarningVectorEnv(gym.vector.VectorEnv):
     """
 
     metadata = {"render_modes": [], "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}
+    #: The single environment it batches.
+    _single_class = CollisionWarningEnv
 
     def __init__(
         self,
@@ -317,7 +322,8 @@ class CollisionWarningVectorEnv(gym.vector.VectorEnv):
             )
         if render_mode is not None:
             raise ConfigError("the vector environment does not render; use CollisionWarningEnv")
-        single = CollisionWarningEnv(source, scenario, config, reward, None, max_episode_steps)
+        single = self._single_class(source, scenario, config, reward, None, max_episode_steps)
+        self._core_class = single._core_class
         self.num_envs = num_envs
         self.scenario, self.config = scenario, single.config
         self.reward_config, self.max_episode_steps = single.reward_config, max_episode_steps
@@ -334,7 +340,7 @@ class CollisionWarningVectorEnv(gym.vector.VectorEnv):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         if seed is not None:
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
-        self._core = _Core(
+        self._core = self._core_class(
             self.num_envs, self.scenario, self.config, self.reward_config, self.np_random
         )
         self._needs_reset[:] = False
@@ -343,17 +349,22 @@ class CollisionWarningVectorEnv(gym.vector.VectorEnv):
     def step(self, actions):
         if self._core is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        actions = np.asarray(actions)
-        if actions.shape != (self.num_envs,) or not np.isin(actions, (0, 1, 2)).all():
-            raise gym.error.InvalidAction(
-                f"actions must be an array of {self.num_envs} values in {{0, 1, 2}}, "
-                f"got shape {actions.shape}"
-            )
+        actions = self._checked(np.asarray(actions))
         core, restart = self._core, self._needs_reset.copy()
-        actions = np.where(restart, NONE, actions).astype(np.int8)
+        idle = restart.reshape((-1,) + (1,) * (actions.ndim - 1))
+        actions = np.where(idle, NONE, actions).astype(np.int8)
         reward = core.act(actions, restart, self.np_random)
         terminated = (core.collided | core.ended) & ~restart
         truncated = ~terminated & ~restart & (core.steps >= self.max_episode_steps)
         self._needs_reset = terminated | truncated
         obs, info = core.observe(core.collided & ~restart)
         return obs, reward, terminated, truncated, info
+
+    def _checked(self, actions: np.ndarray) -> np.ndarray:
+        """``actions``, or gymnasium's error if they are not one warning level per copy."""
+        if actions.shape != (self.num_envs,) or not np.isin(actions, (0, 1, 2)).all():
+            raise gym.error.InvalidAction(
+                f"actions must be an array of {self.num_envs} values in {{0, 1, 2}}, "
+                f"got shape {actions.shape}"
+            )
+        return actions

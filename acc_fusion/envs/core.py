@@ -69,23 +69,35 @@ class _Core:
         return np.where(est.valid, est.gap, np.nan)
 
     def act(self, action: np.ndarray, restart=None, rng=None) -> np.ndarray:
-        """Apply the warnings and advance one step; the copies in ``restart`` then start a
-        new run (drawn from ``rng``) while the others continue.  Returns the rewards."""
-        brake = self.driver.step(action, self.seen.frame)
+        """Apply the actions (the warnings) and advance one step; the copies in ``restart``
+        then start a new run (drawn from ``rng``) while the others continue.  Returns the
+        rewards."""
         was = self.source.collided
-        self.source.advance(brake)
+        self.source.advance(self._brakes(action))
         self.steps += 1
         self.collided = self.source.collided & ~was
-        reward = self.reward.reward(action, self.seen.oracle, self.collided, self.dt)
+        reward = self._reward(action)
         if restart is not None and restart.any():
             self.source.restart(restart, np.random.default_rng(int(rng.integers(2**63))))
-            self.driver.reset(restart)
+            self._restart(restart)
             self.steps[restart] = 0
             self.last_seen[:, restart] = -np.inf
             self.collided[restart] = False
             reward[restart] = 0.0
         self._perceive(restart)
         return reward
+
+    def _brakes(self, action: np.ndarray) -> np.ndarray:
+        """The brake requests [m/s²] of the step: the drivers', who hear the warnings."""
+        return self.driver.step(action, self.seen.frame)
+
+    def _reward(self, action: np.ndarray) -> np.ndarray:
+        """The rewards of the step (:class:`~acc_fusion.envs.options.RewardConfig`)."""
+        return self.reward.reward(action, self.seen.oracle, self.collided, self.dt)
+
+    def _restart(self, restart: np.ndarray) -> None:
+        """Start the copies ``restart`` afresh beyond the source (their drivers)."""
+        self.driver.reset(restart)
 
     def _perceive(self, reassigned) -> None:
         frame = self.source.frame()

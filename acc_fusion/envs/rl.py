@@ -199,15 +199,17 @@ def _split_info(info: dict, n: int) -> list[dict]:
     return out
 
 
-def make_vec_env(num_envs: int = 64, **env_kwargs) -> GymVectorToSB3:
-    """The native vector environment (``num_envs`` copies) as a Stable-Baselines3 VecEnv.
+def make_vec_env(num_envs: int = 64, env_id: str = ENV_ID, **env_kwargs) -> GymVectorToSB3:
+    """The native vector environment (``num_envs`` copies) of ``env_id`` (the warning
+    environment, or ``acc_fusion/CollisionAvoidance-v0`` that also brakes) as a
+    Stable-Baselines3 VecEnv.
 
     ``env_kwargs`` go to :class:`~acc_fusion.envs.collision_warning.CollisionWarningVectorEnv`
     (``scenario``, ``config``, ``reward``, ``max_episode_steps``).
     """
 
     venv = gym.make_vec(
-        ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point", **env_kwargs
+        env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **env_kwargs
     )
     return GymVectorToSB3(venv)
 
@@ -250,14 +252,15 @@ class FCWFeatures(BoxScaler):
     def __init__(self, observation_space: spaces.Box) -> None:
 
         super().__init__(observation_space)
-        if observation_space.shape != (len(OBS_FIELDS),):
+        shape = observation_space.shape
+        if len(shape) != 1 or shape[0] < len(OBS_FIELDS):
             raise ConfigError(
-                f"FCWFeatures needs the collision-warning observation ({len(OBS_FIELDS)},), "
-                f"got shape {observation_space.shape}"
+                f"FCWFeatures needs an observation that begins with the collision-warning "
+                f"one ({len(OBS_FIELDS)},), got shape {shape}"
             )
         self._idx = tuple(OBS_FIELDS.index(f) for f in ("gap", "range_rate", "ego_speed"))
         self._valid = OBS_FIELDS.index("track_valid")
-        self._features_dim = len(OBS_FIELDS) + 3
+        self._features_dim = shape[0] + 3
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
         obs = observations.flatten(1)
@@ -372,16 +375,18 @@ def train_ppo(
     progress: bool = False,
     threads: int | None = 1,
     env_kwargs: dict | None = None,
+    env_id: str = ENV_ID,
     **ppo_kwargs,
 ):
     """Train PPO on the native vector environment for ``timesteps`` steps or ``minutes`` of
     wall-clock time, whichever comes first.
 
-    The environment is ``num_envs`` copies of ``acc_fusion/CollisionWarning-v0`` (default
-    reward and scenario mixture) behind :class:`GymVectorToSB3`, with
-    ``VecMonitor`` and a reward-only ``VecNormalize`` (training only: the saved model takes raw
-    observations).  ``env_kwargs`` go to :func:`make_vec_env` (e.g. ``config``, whose warning
-    rule is the oracle the reward follows); ``ppo_kwargs`` go to :func:`make_ppo`.
+    The environment is ``num_envs`` copies of ``env_id`` (default
+    ``acc_fusion/CollisionWarning-v0``, its default reward and scenario mixture) behind
+    :class:`GymVectorToSB3`, with ``VecMonitor`` and a reward-only ``VecNormalize`` (training
+    only: the saved model takes raw observations). ``env_kwargs`` go to :func:`make_vec_env`
+    (e.g. ``config``, whose warning rule is the oracle the reward follows); ``ppo_kwargs`` go to
+    :func:`make_ppo`.
 
     ``threads``: torch's intra-op threads during training (restored afterwards; ``None``:
     leave torch's setting).  One by default: the 64-64 MLP gains little from more, and the
@@ -395,7 +400,7 @@ def train_ppo(
     """
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    venv = make_vec_env(num_envs, **(env_kwargs or {}))
+    venv = make_vec_env(num_envs, env_id, **(env_kwargs or {}))
     venv.seed(seed)
     gamma = ppo_kwargs.get("gamma", PPO_DEFAULTS["gamma"])
     venv = VecNormalize(VecMonitor(venv), norm_obs=False, norm_reward=True, gamma=gamma)
