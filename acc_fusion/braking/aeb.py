@@ -28,9 +28,11 @@ Each of N vehicles runs the same decision on the estimate of its selected in-pat
    the operating speed range, and then only escalates: partial braking at ``partial_decel``,
    full braking at ``full_decel`` — also once partial braking no longer suffices
    (:math:`a_\text{req} \ge` ``partial_decel`` while braking partially).  The partial
-   trigger lies above the crash-relevant threshold of the alert classes (3.4 m/s²), so on a
-   true estimate AEB brakes only in crash-relevant situations: every false activation is a
-   sensing error.
+   trigger lies above the crash-relevant threshold of the alert classes (3.4 m/s²) and the
+   TTC trigger below theirs (2 s), but AEB judges the situation a latency ahead and a
+   ``stop_margin`` short, so even a true estimate can engage it a moment before truth calls
+   the situation crash-relevant: a *nuisance* activation on the true lead.  A sensing-false
+   activation is an estimate's error.
 3. **Release.**  AEB releases when the ego has stood still for ``standstill_hold``, when its
    object is no longer closing (:math:`\dot g \ge 0`), needs less than ``release_below`` and
    brakes less than that itself (a lead still braking ahead is still a threat), when the object
@@ -101,8 +103,7 @@ class AEBConfig:
         stop_margin: the distance short of the lead at which AEB aims to stop [m]; 1.0
             (assumption: test-track AEB stops typically leave about a metre).
         ttc_trigger: time to collision at which full braking engages [s]; 1.2 (assumption,
-            below the 2.0 s of the crash-relevant classes, so that on a true estimate it
-            too brakes only in crash-relevant situations).
+            below the 2.0 s of the crash-relevant classes).
         release_below: the required deceleration, and the lead's own, under which AEB
             releases once its object no longer closes [m/s²]; 1.0 (assumption: ordinary
             braking, left to the driver).
