@@ -13,6 +13,7 @@ $(BIN)/python:
 
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[all]"
+	$(BIN)/pip install --quiet --no-deps "asam-qc-opendrive==1.0.0"  # pins numpy<2: see pyproject
 	rm -f $(VENV)/.installed-*
 	touch $@
 
