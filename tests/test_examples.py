@@ -50,6 +50,7 @@ def needs(*modules: str) -> None:
 TESTED = (
     "gym_braking_ppo.py",
     "gym_sb3.py",
+    "osi_trace.py",
     "rllib_sumo_ppo.py",
     "scripted_study.py",
     "sumo_study.py",
@@ -78,6 +79,14 @@ def test_sumo_study():
     assert "FCW in SUMO traffic: ring.sumocfg" in out
     assert re.search(r"^federated\s+\d+", out, flags=re.M)
     assert "collisions: " in out and "SUMO failed" not in out
+
+
+def test_osi_trace(tmp_path):
+    needs("libsumo", "osi3", "osi_utilities")
+    out = run_example("osi_trace.py", "--end", "5", "--vehicles", "1", "--out", str(tmp_path))
+    assert f"wrote 1 OSI traces in {tmp_path}" in out
+    assert re.search(r"^\S+\.mcap: 8 channels, \d+ steps, objects ahead", out, flags=re.M)
+    assert "Nuisance and sensing-false alerts by cause" in out
 
 
 def test_gym_sb3():

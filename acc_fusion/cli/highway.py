@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 
+from acc_fusion.cli.arguments import osi_output
 from acc_fusion.cli.common import (
     report_world,
     sim_config,
@@ -29,10 +30,12 @@ def run_world(args: argparse.Namespace, cfg: HighwayConfig) -> int:
         raise ConfigError("--world runs open loop, nobody driving on the warnings; remove drive")
     conditions = [parse_conditions(c) for c in args.conditions or ["day"]]
     out = args.out
-    study = highway_world_study(cfg, sim, conditions, progress=True)
+    study = highway_world_study(cfg, sim, conditions, progress=True, osi=osi_output(args))
     stem = f"highway_world_{cfg.env}_seed{cfg.seed}"
     report_world(study, out, stem, env=cfg.env, episodes=cfg.episodes, seed=cfg.seed,
                  pairs=cfg.pairs)  # fmt: skip
+    if args.osi is not None:
+        print(f"wrote {len(study.traces)} OSI traces in {args.osi}")
     return 0
 
 
@@ -47,8 +50,8 @@ def run(args: argparse.Namespace) -> int:
         pairs=args.pairs,
         vehicles_count=args.vehicles,
     )
-    if args.conditions and not args.world:
-        raise ConfigError("--conditions is a setting of the 2-D pipeline; add --world")
+    if (args.conditions or args.osi is not None) and not args.world:
+        raise ConfigError("--conditions and --osi are settings of the 2-D pipeline; add --world")
     if args.world:
         return run_world(args, cfg)
     render = check_replay_path(args.render) if args.render else None

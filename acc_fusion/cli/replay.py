@@ -1,6 +1,7 @@
-"""``acc-fusion replay``: recorded traffic (highD, NGSIM, any mapped trajectory CSV) through the
-FCW pipeline, open loop: alerts per 100 km by class per method, the data's headway
-distribution, per-recording exposure and the cross-check against the data set's columns.
+"""``acc-fusion replay``: recorded traffic (highD, NGSIM, any mapped trajectory CSV, ASAM OSI
+traces) through the FCW pipeline, open loop: alerts per 100 km by class per method, the data's
+headway distribution, per-recording exposure and the cross-check against the data set's columns
+(and, for OSI traces, through the 2-D world unless ``--pair``, the alerts by cause).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from acc_fusion.cli.common import (
     sim_config,
     write_summary,
 )
+from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
 from acc_fusion.studies.replay import replay_study
 from acc_fusion.truth.replay.source import ReplayConfig
@@ -30,13 +32,20 @@ def run(args: argparse.Namespace) -> int:
     )
     out = args.out
     sim = sim_config(args, runs=1)
-    study = replay_study(config, sim, progress=True)
+    if args.format != "osi" and (args.pair or args.topic):
+        raise ConfigError("--pair and --topic are settings of --format osi (the other formats "
+                          "replay the 1-D pair)")  # fmt: skip
+    world = args.format == "osi" and not args.pair
+    study = replay_study(config, sim, progress=True, world=world, topic=args.topic)
     tables = {
         "": study.table(),
         "_classes": study.classes(),
         "_exposure": study.exposure(),
         "_crosscheck": study.crosscheck(),
     }
+    causes = study.causes()
+    if causes is not None:  # the 2-D world's (osi --world)
+        tables["_causes"] = causes
     shown = [t.format() if t.rows else f"{t.title}: none" for t in tables.values()]
     print("\n\n".join(shown))
     if out is not None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
+from acc_fusion.cli.arguments import osi_output
 from acc_fusion.cli.common import (
     report_world,
     sim_config,
@@ -55,6 +56,9 @@ def _check(args: argparse.Namespace, conditions: list) -> None:
         raise ConfigError("--seeds runs headless over its own seeds; drop --gui and --seed")
     if not args.seeds and (args.address or args.executor != "local"):
         raise ConfigError("--executor and --address are settings of --seeds")
+    if args.osi is not None and (args.pair or args.seeds or args.open_loop):
+        raise ConfigError("--osi records the 2-D world of one seed's run; drop --pair, --seeds "
+                          "and --open-loop")  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,9 +86,8 @@ def run(args: argparse.Namespace) -> int:
         )
         stem, seed_field = f"sumo_{path.stem}_seeds", list(seeds)
     else:
-        study = sumo_study(
-            sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm, world=world, aeb=args.aeb
-        )
+        study = sumo_study(sumo_cfg, sim, progress=True, drives=drives, ssm=args.ssm,
+                           world=world, aeb=args.aeb, osi=osi_output(args))  # fmt: skip
         stem, seed_field = f"sumo_{path.stem}_seed{sumo_cfg.seed}", sumo_cfg.seed
     table = study.table()
     if seeds:
@@ -104,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
+    if args.osi is not None:
+        print(f"\nwrote {len(list(args.osi.glob('*.mcap')))} OSI traces in {args.osi}")
     if out is not None:
         tables = {**causes, **({} if aeb is None else {"aeb": aeb})}
         for name, t in tables.items():

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 
+from acc_fusion.cli.arguments import osi_output
 from acc_fusion.cli.common import (
     sim_config,
     write_summary,
@@ -47,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     scenes = args.scene or sorted(SCENES)
     config = sim_config(args, runs=50)
     out = args.out
-    study = world_study(config, scenes, conditions, progress=True)
+    study = world_study(config, scenes, conditions, progress=True, osi=osi_output(args))
     tables = {"world_scenes": study.scenes(), "world_causes": study.causes()}
     print("\n\n".join(t.format() for t in tables.values()))
     if args.plot:
@@ -65,4 +66,6 @@ def run(args: argparse.Namespace) -> int:
                 for (scene, label), summaries in study.results.items()
             },
         )
+    if args.osi is not None:
+        print(f"wrote {len(study.traces)} OSI traces in {args.osi}")
     return 0

@@ -165,6 +165,8 @@ class StepView:
     """The drivers (closed loop), after their step: their brake requests for this step."""
     aeb: AEB | None = None
     """The AEB (``config.aeb.enabled``), after its step: its stage and braking this step."""
+    perceived: Perceived | None = None
+    """What the perception made of the step (the 2-D world's: what each stage made of it)."""
 
 
 @dataclass
@@ -442,17 +444,9 @@ def simulate(
                 if aeb is not None and m == cfg.aeb_method:
                     aeb_brake = aeb.step(inputs["gap"], inputs["v_ego"], inputs["v_rel"],
                                          inputs["a_lead"], inputs["valid"], active)  # fmt: skip
-                metrics[m].update(
-                    frame.t,
-                    levels[m],
-                    p.oracle,
-                    p.ttc,
-                    frame.ego_speed,
-                    active,
-                    collided,
-                    p.relevant,
-                    None if p.causes is None else p.causes[m],
-                )
+                cause = None if p.causes is None else p.causes[m]
+                metrics[m].update(frame.t, levels[m], p.oracle, p.ttc, frame.ego_speed, active,
+                                  collided, p.relevant, cause)  # fmt: skip
             if aeb is not None:  # AEB's activations classed as the warnings are
                 engaged, cause = (aeb.stage > 0) * np.int8(IMMINENT), p.causes or {}
                 aeb_metrics.update(frame.t, engaged, p.oracle, p.ttc, frame.ego_speed, active,
@@ -467,7 +461,7 @@ def simulate(
                 brake[: frame.n_pairs] = np.maximum(brake[: frame.n_pairs], aeb_brake)
             if on_step is not None:
                 view = (frame, p.measurements, p.estimates, levels, p.oracle, p.ttc, p.relevant)
-                on_step(StepView(*view, driver, aeb))
+                on_step(StepView(*view, driver, aeb, p))
             if brake is None:
                 source.advance()
             elif driver is not None and driver.distracts:

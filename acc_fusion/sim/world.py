@@ -29,6 +29,7 @@ object, always in path, measured without association.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -40,9 +41,14 @@ from acc_fusion.core.validation import broadcast
 from acc_fusion.filters.ego import EgoFilterConfig, EgoMotionFilter
 from acc_fusion.fusion.base import Estimate
 from acc_fusion.fusion.estimators import make_estimator
-from acc_fusion.fusion.tracking.association import TrackAssociator, fused_measurements
-from acc_fusion.fusion.tracking.tracker import Tracker
+from acc_fusion.fusion.tracking.association import (
+    FusedObjects,
+    TrackAssociator,
+    fused_measurements,
+)
+from acc_fusion.fusion.tracking.tracker import Tracker, Tracks
 from acc_fusion.metrics.summary import CAUSES
+from acc_fusion.sensors.detections import Detections
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sensors.suite2d import sensors_2d
 from acc_fusion.sim.closed_loop import (
@@ -55,6 +61,7 @@ from acc_fusion.sim.closed_loop import (
     simulate,
 )
 from acc_fusion.sim.world_config import WorldConfig
+from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.objects import STATIONARY_KINDS, ObjectFrame, ObjectKind
 from acc_fusion.truth.scenes import SceneConfig, SceneSource
 from acc_fusion.warning.logic import WarningLogic
@@ -138,6 +145,38 @@ def _cause(
             out[e] = 1 if still else 2
 
 
+@dataclass(frozen=True)
+class Sensed:
+    """What the 2-D world's stages made of one step, for hooks that record it (the OSI trace of
+    :mod:`acc_fusion.sim.osi_trace`): views of the stages' arrays, valid within the step.
+
+    Attributes:
+        objects: the truth the sensors saw.
+        detections: each sensor's detections (:data:`~acc_fusion.sensors.suite.SENSOR_NAMES`
+            order).
+        tracks: each sensor's tracks, in the same order.
+        fused: the objects the associator made of the two sensors' tracks.
+        accel: ``(E,)`` the ego's accelerometer reading [m/s²].
+        wheel: ``(E,)`` the ego's wheel-speed reading [m/s].
+        yaw_rate: ``(E,)`` the ego's gyro reading [rad/s].
+        estimates: every method's estimates over the estimators' pairs; :meth:`per_object` lays
+            one out over the E·F object slots.
+        reassigned: ``(E,)`` the egos that a new vehicle took at this step (``None``: a source
+            whose egos never change).
+    """
+
+    objects: ObjectFrame
+    detections: list[Detections]
+    tracks: list[Tracks]
+    fused: FusedObjects
+    accel: np.ndarray
+    wheel: np.ndarray
+    yaw_rate: np.ndarray
+    estimates: dict[str, Estimate]
+    per_object: Callable[[Estimate], Estimate]
+    reassigned: np.ndarray | None
+
+
 @dataclass
 class WorldPerceived(Perceived):
     """What :class:`WorldPerception` perceived at one step, as the 1-D pipeline's
@@ -147,9 +186,11 @@ class WorldPerceived(Perceived):
     not to egos), each method's estimate is that of the object it selected (``valid`` where it
     selected one), and ``causes`` what that object is in truth (:func:`alert_cause`, or
     ``fault``).  ``truth_id``: per method, the true id of each ego's selected object (``-1``
-    for a ghost or clutter track, or without a selection)."""
+    for a ghost or clutter track, or without a selection); ``sensed``: what the stages made of
+    the step (:class:`Sensed`)."""
 
     truth_id: dict[str, np.ndarray] = field(default_factory=dict)
+    sensed: Sensed | None = None
 
 
 class WorldPerception(PairState):
@@ -245,13 +286,10 @@ class WorldPerception(PairState):
         dt = self.config.dt if self._t_prev is None else frame.t - self._t_prev
         self._t_prev = frame.t
         lead = frame.lead_frame()
-        accel, wheel = self._read_ego(lead)
+        accel, wheel, yaw, detections = self._sense(frame, lead)
         if reassigned is not None and reassigned.any():
             self.forget(reassigned, wheel)
         v_ego, bias = self.ego.step(accel, wheel)
-        noise = self._gyro.normal(0.0, self.world.yaw_rate_std, self._capacity)[: self.n]
-        yaw = frame.ego_yaw_rate + noise
-        detections = [s.detect(frame, self.world.conditions) for s in self.sensors]
         tracks = [
             tr.step(d, v_ego, yaw, dt, copy=False)  # read within this step
             for tr, d in zip(self.trackers, detections, strict=True)
@@ -272,8 +310,9 @@ class WorldPerception(PairState):
         # what every method's path prediction reads of the objects: their tracks
         seen = (fused.object_id, *_track_view(fused.valid, fused.track, tracks[0].state,
                                               tracks[1].state))  # fmt: skip
+        raw = {}
         for m, estimator in self.estimators.items():
-            est = estimator.step(measurements, target, u, copy=False)
+            est = raw[m] = estimator.step(measurements, target, u, copy=False)
             estimates[m], truth_id[m] = self._select(
                 m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active, dt, seen
             )
@@ -281,7 +320,22 @@ class WorldPerception(PairState):
             if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
                 cause[:] = CAUSES.index("fault")
             causes[m] = cause
-        return WorldPerceived(lead, [], v_ego, estimates, oracle, ttc, relevant, causes, truth_id)
+        sensed = Sensed(frame, detections, tracks, fused, accel, wheel, yaw, raw, self.per_slot,
+                        reassigned)  # fmt: skip
+        return WorldPerceived(
+            lead, [], v_ego, estimates, oracle, ttc, relevant, causes, truth_id, sensed
+        )
+
+    def _sense(
+        self, frame: ObjectFrame, lead: TruthFrame
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[Detections]]:
+        """The egos' accelerometer, wheel-speed and gyro readings and each sensor's detections
+        at ``frame`` (``lead``: its 1-D truth), drawn from the sensors' models
+        (:class:`~acc_fusion.sim.osi_trace.RecordedPerception` reads them from a trace)."""
+        accel, wheel = self._read_ego(lead)
+        noise = self._gyro.normal(0.0, self.world.yaw_rate_std, self._capacity)[: self.n]
+        detections = [s.detect(frame, self.world.conditions) for s in self.sensors]
+        return accel, wheel, frame.ego_yaw_rate + noise, detections
 
     def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active, dt, seen):
         """The selected object of each active ego under ``method``: its estimate (an
@@ -388,6 +442,7 @@ def simulate_world(
     progress: bool = False,
     on_step=None,
     warnings_on: bool = True,
+    perception=None,
 ) -> SimResult:
     """Run the 2-D pipeline (settings ``config.world``) on its scene (``config.runs`` runs,
     one ego each), or on ``source`` (anything with ``frame()`` giving an :class:`ObjectFrame`,
@@ -397,7 +452,9 @@ def simulate_world(
     perception, so ``config.drive`` closes it (the driver hears that method's warnings and
     brakes, with a source that takes brake requests), ``on_step`` sees every step and
     ``warnings_on`` false keeps the warnings from the driver; each method's summary has its
-    alerts by cause.
+    alerts by cause.  ``perception`` builds the sensing and estimation (default
+    :class:`WorldPerception`; :class:`~acc_fusion.sim.osi_trace.RecordedPerception` reads a
+    trace's detections instead of drawing them).
 
     A source with ``reassigned`` has its egos come and go: a slot that a new vehicle took
     starts afresh in every stage and an inactive slot counts for nothing; a source of slots
@@ -413,5 +470,5 @@ def simulate_world(
         progress=progress,
         on_step=on_step,
         warnings_on=warnings_on,
-        perception=WorldPerception,
+        perception=WorldPerception if perception is None else perception,
     )

@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.sim.osi_trace import OsiOutput
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.world import WorldStudy
 from acc_fusion.truth.conditions import Conditions
@@ -22,6 +23,7 @@ def highway_world_study(
     conditions: list[Conditions],
     progress: bool = False,
     field: ObjectFieldConfig | None = None,
+    osi: OsiOutput | None = None,
 ) -> WorldStudy:
     """The 2-D pipeline of ``sim`` (``sim.world`` settings, its step replaced by highway-env's,
     ``drive`` ignored: open loop) on the episodes of ``cfg``, once per condition: each run
@@ -35,12 +37,25 @@ def highway_world_study(
         progress: show the source's progress bar over the episodes.
         field: the forward field and roadside objects (``None``:
             :data:`~acc_fusion.truth.highway.world.DEFAULT_FIELD`).
+        osi: where to write an OSI trace of every vehicle of every episode, named
+            ``<env>_<condition>_epNNN_vNN.mcap`` (:class:`OsiOutput`).
     """
-    results = {}
+    results, traces = {}, []
     for cond in conditions:
         with HighwaySource(cfg, progress=progress) as source:
             world = replace(sim.world, conditions=cond)
             run = replace(sim, dt=source.dt, drive=None, world=world)
-            result = simulate_world(run, source=HighwayWorld(source, field))
+            if osi is None:
+                result = simulate_world(run, source=HighwayWorld(source, field))
+            else:
+
+                def names(source=source) -> list[str]:
+                    return [f"ep{source.episode:03d}_v{e:02d}" for e in range(source.n_pairs)]
+
+                with osi.recorder(run, f"{cfg.env}_{cond.label}_", names) as recorder:
+                    result = simulate_world(
+                        run, source=HighwayWorld(source, field), on_step=recorder
+                    )
+                traces += recorder.written
         results[(cfg.env, cond.label)] = result.summaries
-    return WorldStudy(sim, results, where=f"highway-env {cfg.env}")
+    return WorldStudy(sim, results, where=f"highway-env {cfg.env}", traces=traces)

@@ -34,6 +34,7 @@ from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
 from acc_fusion.metrics.summary import CAUSES, FALSE_CLASSES, FCWSummary, pool_summaries
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
+from acc_fusion.sim.osi_trace import OsiOutput
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
 from acc_fusion.studies.crashes import CrashLog, chain
@@ -95,13 +96,16 @@ def _run(
     cross_check: bool,
     warnings_on: bool = True,
     world: bool = False,
+    osi: OsiOutput | None = None,
 ) -> SumoRun:
-    """One SUMO run (in a worker process).  In open loop SUMO runs in a child process ahead of
-    the pipeline (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`, with the
-    object frames for ``world``); in ``sumo-gui``
-    (``sumo_config.gui``) the vehicles are coloured by the warning level of the last method
-    of ``sim``; with ``warnings_on`` false the drivers act but hear no warning; with ``world``
-    the 2-D pipeline perceives (:func:`~acc_fusion.sim.world.simulate_world` on
+    """One SUMO run (in a worker process); with ``osi`` (the 2-D world) an OSI trace of every
+    equipped vehicle (:class:`~acc_fusion.sim.osi_trace.OsiOutput`).  In open loop SUMO runs
+    in a child process ahead of the pipeline
+    (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource`, with the object frames
+    for ``world``); in ``sumo-gui`` (``sumo_config.gui``) the vehicles are coloured by the
+    warning level of the last method of ``sim``; with ``warnings_on`` false the drivers act
+    but hear no warning; with ``world`` the 2-D pipeline perceives
+    (:func:`~acc_fusion.sim.world.simulate_world` on
     :class:`~acc_fusion.truth.sumo.world.SumoWorld`)."""
 
     config = replace(sumo_config, ssm=cross_check)
@@ -115,6 +119,10 @@ def _run(
         if sumo_config.gui:
             method = sim.methods[-1]
             hook = chain(hook, lambda view: source.set_warning_colors(view.levels[method]))
+        recorder = None
+        if osi is not None:
+            recorder = osi.recorder(sim, "", lambda: source.vehicle_ids)
+            hook = chain(hook, recorder)
         metrics_so_far: dict[str, FCWSummary] = {}
         error, steps, aeb = None, 0, None
         try:
@@ -129,6 +137,9 @@ def _run(
         except SumoError as exc:  # SUMO failed mid-run: report it with what was measured
             error = str(exc)
             metrics_so_far = getattr(exc, "summaries", {})
+        finally:
+            if recorder is not None:
+                recorder.close()
         pairs = [] if cross_check else None
         if cross_check and error is None:
             ssm, seen = source.ssm_min_ttc(), min_ttc.min_ttc
@@ -295,17 +306,17 @@ OFF, ON, ALSO, WITH_AEB = "off", "on", "on:", "aeb"
 
 def study_runs(
     sumo_config, sim: SimConfig, *, drives: tuple[str, ...] = (), ssm: bool = False,
-    world: bool = False, progress: bool = False, aeb: bool = False,
+    world: bool = False, progress: bool = False, aeb: bool = False, osi: OsiOutput | None = None,
 ) -> dict[str, tuple]:  # fmt: skip
     """The runs of a study of ``sumo_config`` (:func:`sumo_study`), by name (:data:`OFF`,
     :data:`ON`, :data:`ALSO` + method, :data:`WITH_AEB` with ``aeb``): the arguments of the
-    worker function :func:`run_one`.
+    worker function :func:`run_one`; ``osi``: the FCW-off run's OSI traces' folder.
     Only the FCW-off run shows a progress bar, and only the FCW-on run a ``sumo-gui``."""
     drive = sim.drive or sim.methods[-1]
     distracted = sim.driver.distraction.rate > 0
     headless = replace(sumo_config, gui=False)
     off_sim = replace(sim, drive=drive if distracted else None)
-    runs = {OFF: (headless, off_sim, progress, ssm, False, world)}
+    runs = {OFF: (headless, off_sim, progress, ssm, False, world, osi)}
 
     def fcw_on(method: str, config) -> tuple:
         return (config, replace(sim, drive=method, methods=(method,)), False, False, True, world)
@@ -341,6 +352,7 @@ def sumo_study(
     ssm: bool = False,
     world: bool = False,
     aeb: bool = False,
+    osi: OsiOutput | None = None,
 ) -> SumoStudy:
     """Run ``sumo_config`` with FCW off (every method watching) and on (federated alerts),
     each in its own process, in parallel; ``drives`` adds an FCW-on run per further method
@@ -349,10 +361,12 @@ def sumo_study(
     ``gui``, the FCW-on run is the one shown in ``sumo-gui`` (vehicles coloured by its
     warning level); the other runs stay headless.  With ``world`` every run perceives with
     the 2-D pipeline (settings ``sim.world``), so its summaries have the alerts by cause and
-    the warnings the drivers hear are the 2-D pipeline's."""
+    the warnings the drivers hear are the 2-D pipeline's; ``osi`` (with ``world``) writes an
+    OSI trace of every equipped vehicle of the FCW-off run there."""
     runs = study_runs(
-        sumo_config, sim, drives=drives, ssm=ssm, world=world, progress=progress, aeb=aeb
-    )
+        sumo_config, sim, drives=drives, ssm=ssm, world=world, progress=progress, aeb=aeb,
+        osi=osi,
+    )  # fmt: skip
     with process_pool(f"SUMO on {sumo_config.sumocfg!r}", 2) as pool:
         futures = {name: pool.submit(run_one, args) for name, args in runs.items()}
         return assemble(sumo_config, sim, {name: f.result() for name, f in futures.items()})

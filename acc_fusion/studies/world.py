@@ -4,7 +4,7 @@ world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numba
@@ -24,6 +24,7 @@ from acc_fusion.metrics.summary import (
     FCWSummary,
 )
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.sim.osi_trace import OsiOutput
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
 from acc_fusion.truth.conditions import Conditions
@@ -58,6 +59,8 @@ class WorldStudy:
     config: SimConfig
     results: dict[tuple[str, str], dict[str, FCWSummary]]
     where: str = "all scenes"
+    traces: list[Path] = field(default_factory=list)
+    """The OSI traces written (``osi`` of :func:`world_study`)."""
 
     def scenes(self) -> Table:
         """Per scene, condition and method: warnings by class, crash-relevant situations and
@@ -171,15 +174,22 @@ def world_study(
     scenes: list[str],
     conditions: list[Conditions],
     progress: bool = False,
+    osi: OsiOutput | None = None,
 ) -> WorldStudy:
-    """Every scene under every condition (``config.runs`` runs each, the same seed)."""
-    results = {}
+    """Every scene under every condition (``config.runs`` runs each, the same seed); with
+    ``osi``, an OSI trace of every run (:class:`OsiOutput`)."""
+    results, traces = {}, []
     jobs = [(s, c) for s in scenes for c in conditions]
     for scene, cond in tqdm(jobs, disable=None if progress else True, desc="scenes"):
-        world = replace(config.world, scene=scene, conditions=cond)
-        result = simulate_world(replace(config, world=world))
+        run = replace(config, world=replace(config.world, scene=scene, conditions=cond))
+        if osi is None:
+            result = simulate_world(run)
+        else:
+            with osi.recorder(run, prefix=f"{scene}_{cond.label}_") as recorder:
+                result = simulate_world(run, on_step=recorder)
+            traces += recorder.written
         results[(scene, cond.label)] = result.summaries
-    return WorldStudy(config, results)
+    return WorldStudy(config, results, traces=traces)
 
 
 def _sumo_world_run(sumo_config: SumoConfig, config: SimConfig, progress: bool):

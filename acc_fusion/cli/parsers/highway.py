@@ -6,6 +6,7 @@ import argparse
 
 from acc_fusion.cli.arguments import (
     add_config_arguments,
+    add_osi_argument,
     output_folder,
     output_path,
     positive_float,
@@ -73,4 +74,5 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--out", metavar="DIR", type=output_folder, help="also write CSV, PNG and JSON here"
     )
+    add_osi_argument(p, "every episode (--world; files <env>_<condition>_epNNN_vNN.mcap)")
     return p

@@ -23,14 +23,18 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         "per method (radar, infrared, centralized, federated) the alerts per 100 km by class "
         "with 95%% intervals, the exposure per recording and the cross-check of the replay's "
         "gap, time headway and TTC against the data set's own columns. No data set ships "
-        "with acc_fusion: see the replay guide for where to obtain highD and NGSIM.",
+        "with acc_fusion: see the replay guide for where to obtain highD and NGSIM. Format "
+        "osi: ASAM OSI ground-truth traces, each trace's host an ego, through the 2-D world "
+        "(alerts also by cause; a trace written with --osi replays with its recorded "
+        "detections, so it gives its run's alerts again), or the 1-D pair with --pair.",
     )
     p.add_argument("--format", required=True, choices=FORMATS, help="the recording's format")
     p.add_argument(
         "--path",
         required=True,
         help="highD: the folder of NN_tracks.csv, NN_tracksMeta.csv, NN_recordingMeta.csv; "
-        "ngsim, csv: the trajectory file",
+        "ngsim, csv: the trajectory file; osi: a .mcap or .osi trace of GroundTruth or "
+        "SensorView messages, or a folder of them (one ego each)",
     )
     p.add_argument(
         "--recording",
@@ -54,6 +58,18 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         default="refuse",
         help="a row outside the physical bounds (position, speed, acceleration, length, id): "
         "refuse the recording, naming its row and column (default), or drop it and count it",
+    )
+    p.add_argument(
+        "--pair",
+        action="store_true",
+        help="osi: the 1-D pair of host and lead (each sensor sees only the true leader) "
+        "instead of the 2-D world (radar and thermal camera seeing every object of the trace, "
+        "trackers, in-path selection)",
+    )
+    p.add_argument(
+        "--topic",
+        help="osi: the MCAP channel to read (default: the first GroundTruth channel, else the "
+        "first SensorView channel)",
     )
     add_config_arguments(p)
     p.add_argument(

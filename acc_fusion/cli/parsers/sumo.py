@@ -6,6 +6,7 @@ import argparse
 
 from acc_fusion.cli.arguments import (
     add_executor_arguments,
+    add_osi_argument,
     add_sim_arguments,
     add_traffic_arguments,
     output_folder,
@@ -88,4 +89,5 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--out", metavar="DIR", type=output_folder, help="also write CSV, PNG and JSON here"
     )
+    add_osi_argument(p, "the FCW-off run (files <vehicle id>.mcap)")
     return p

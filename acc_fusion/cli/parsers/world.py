@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from acc_fusion.cli.arguments import (
+    add_osi_argument,
     add_sim_arguments,
     output_folder,
     output_path,
@@ -54,4 +55,5 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         help="also write CSV (the tables, and the rates by cause with their intervals) and "
         "JSON here",
     )
+    add_osi_argument(p, "every scene and condition (files <scene>_<condition>_runNNN.mcap)")
     return p
