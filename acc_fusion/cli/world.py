@@ -1,6 +1,6 @@
-"""``acc-fusion world``: the scripted 2-D scenes — radar and thermal camera seeing every object
-ahead, multi-target trackers, in-path selection — under weather and light conditions: alerts
-by class and by cause per method."""
+"""``acc-fusion world``: the scripted 2-D scenes (or an OpenSCENARIO file) — radar and
+thermal camera seeing every object ahead, multi-target trackers, in-path selection — under
+weather and light conditions: alerts by class and by cause per method."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from acc_fusion.cli.common import (
 )
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
-from acc_fusion.studies.world import world_study
+from acc_fusion.studies.world import scenario_file_study, world_study
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.scenes import SCENES
 
@@ -47,7 +47,10 @@ def run(args: argparse.Namespace) -> int:
     scenes = args.scene or sorted(SCENES)
     config = sim_config(args, runs=50)
     out = args.out
-    study = world_study(config, scenes, conditions, progress=True)
+    if args.scenario_file is not None:
+        study = scenario_file_study(config, args.scenario_file, conditions, progress=True)
+    else:
+        study = world_study(config, scenes, conditions, progress=True)
     tables = {"world_scenes": study.scenes(), "world_causes": study.causes()}
     print("\n\n".join(t.format() for t in tables.values()))
     if args.plot:

@@ -1,6 +1,7 @@
 """The 2-D world under each weather and light condition, every method: alerts by class and by
 cause — of the scripted scenes (:func:`world_study`, the tables and the figure of ``acc-fusion
-world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open-loop``)."""
+world``), of a scenario file (:func:`scenario_file_study`, ``acc-fusion world --scenario``)
+and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open-loop``)."""
 
 from __future__ import annotations
 
@@ -27,6 +28,8 @@ from acc_fusion.sim.closed_loop import SimConfig
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
 from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.openscenario.read import read_scenario
+from acc_fusion.truth.procedures import TrackSource
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig
@@ -180,6 +183,21 @@ def world_study(
         result = simulate_world(replace(config, world=world))
         results[(scene, cond.label)] = result.summaries
     return WorldStudy(config, results)
+
+
+def scenario_file_study(
+    config: SimConfig, path: str | Path, conditions: list[Conditions], progress: bool = False
+) -> WorldStudy:
+    """An OpenSCENARIO file (:func:`~acc_fusion.truth.openscenario.read.read_scenario`) in the
+    2-D world under every condition: ``config.runs`` runs of it, each run ending at its stop
+    trigger or at contact (:class:`~acc_fusion.truth.procedures.TrackSource`)."""
+    scene = read_scenario(path, config.runs)
+    results = {}
+    for cond in tqdm(conditions, disable=None if progress else True, desc="conditions"):
+        run = replace(config, world=replace(config.world, conditions=cond))
+        source = TrackSource(scene, scene.duration, config.dt)
+        results[(scene.name, cond.label)] = simulate_world(run, source=source).summaries
+    return WorldStudy(config, results, where=Path(path).name)
 
 
 def _sumo_world_run(sumo_config: SumoConfig, config: SimConfig, progress: bool):
