@@ -8,7 +8,7 @@ retyped. ``--examples`` runs each script of ``examples/`` at a small size instea
 to what they print:
 
     python scripts/docs_snippets.py             # `make run`: a few minutes on 2 cores
-    python scripts/docs_snippets.py --examples  # the five examples: a few minutes
+    python scripts/docs_snippets.py --examples  # the seven examples: a few minutes
 
 The main job's command is read from the Makefile's ``run`` target, so the two cannot drift
 apart.
@@ -31,6 +31,7 @@ SNIPPETS = ROOT / "docs" / "snippets"
 EXAMPLES = {
     "scripted_study.py": ["--runs", "10"],
     "sumo_study.py": ["--end", "20"],
+    "osi_trace.py": ["--end", "5", "--vehicles", "1", "--out", "out/example_osi"],
     "gym_sb3.py": ["--timesteps", "512", "--episodes", "1"],
     "gym_braking_ppo.py": ["--timesteps", "4096", "--episodes", "2"],
     "sweep.py": ["--runs", "4", "--out", "out/example_sweep"],

@@ -9,16 +9,12 @@ import argparse
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from acc_fusion.core.errors import AccFusionError, ConfigError
+from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import check_output_dir, check_output_file
 from acc_fusion.sweep import EXECUTORS
 from acc_fusion.truth.distraction import TRAFFIC_DISTRACTION_RATE
 from acc_fusion.truth.sumo.config import TRAFFIC_WARMUP
-
-if TYPE_CHECKING:
-    from acc_fusion.sim.osi_trace import OsiOutput
 
 
 def positive_int(text: str) -> int:
@@ -119,7 +115,7 @@ def add_sim_arguments(p: argparse.ArgumentParser, runs_help: str | None) -> None
 
 def add_osi_argument(p: argparse.ArgumentParser, which: str) -> None:
     """``--osi DIR`` and ``--osi-vehicles N``: write an ASAM OSI trace per ego of ``which``
-    there (:func:`osi_output`)."""
+    there (:func:`acc_fusion.cli.common.osi_output`)."""
     p.add_argument(
         "--osi",
         metavar="DIR",
@@ -133,18 +129,6 @@ def add_osi_argument(p: argparse.ArgumentParser, which: str) -> None:
         type=positive_int,
         help="with --osi: trace only the first N ego vehicles to appear (default: all)",
     )
-
-
-def osi_output(args: argparse.Namespace) -> OsiOutput | None:
-    """The :class:`~acc_fusion.sim.osi_trace.OsiOutput` of ``--osi`` and ``--osi-vehicles``
-    (``None`` without ``--osi``; ``--osi-vehicles`` alone is one ConfigError)."""
-    from acc_fusion.sim.osi_trace import OsiOutput  # the pipeline, once the command runs
-
-    if args.osi is None:
-        if args.osi_vehicles is not None:
-            raise ConfigError("--osi-vehicles is a setting of --osi; add --osi DIR")
-        return None
-    return OsiOutput(args.osi, args.osi_vehicles)
 
 
 def add_traffic_arguments(p: argparse.ArgumentParser) -> None:

@@ -20,6 +20,7 @@ from acc_fusion.core.validation import check_choice
 from acc_fusion.fusion.config import FUSION_METHODS
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import SimConfig
+from acc_fusion.sim.osi_trace import OsiOutput
 from acc_fusion.truth.distraction import TRAFFIC_CALM, TRAFFIC_DISTRACTION_RATE
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
@@ -153,3 +154,13 @@ def write_study(out, stem: str, table, study, **fields) -> None:
     runs = {"fcw_off": study.off, "fcw_on": study.on}
     summaries = {k: {m: s.as_dict() for m, s in r.summaries.items()} for k, r in runs.items()}
     write_summary(out, f"{stem}.json", {**fields, **summaries})
+
+
+def osi_output(args: argparse.Namespace) -> OsiOutput | None:
+    """The :class:`~acc_fusion.sim.osi_trace.OsiOutput` of ``--osi`` and ``--osi-vehicles``
+    (``None`` without ``--osi``; ``--osi-vehicles`` alone is one ConfigError)."""
+    if args.osi is None:
+        if args.osi_vehicles is not None:
+            raise ConfigError("--osi-vehicles is a setting of --osi; add --osi DIR")
+        return None
+    return OsiOutput(args.osi, args.osi_vehicles)

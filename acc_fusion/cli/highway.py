@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import argparse
 
-from acc_fusion.cli.arguments import osi_output
 from acc_fusion.cli.common import (
+    osi_output,
     report_world,
     sim_config,
     write_study,

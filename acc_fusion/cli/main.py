@@ -37,8 +37,10 @@ COMMANDS = {
     "and off, rendered replays",
     "replay": "recorded traffic (highD, NGSIM, trajectory CSV) through the FCW pipeline, "
     "open loop: alert classes per method, headways, exposure",
-    "world": "the 2-D scenes (curves, cut-in/out, gantry, parked car) under weather and "
-    "light: alerts by class and cause per method",
+    "world": "the 2-D scenes (curves, cut-in/out, gantry, parked car) or an OpenSCENARIO "
+    "file under weather and light: alerts by class and cause per method",
+    "scenarios": "the test protocols as OpenSCENARIO files with their OpenDRIVE road "
+    "(export, with ASAM's checkers)",
     "evaluate": "a warning policy (yours or a learned agent) against the baselines, in the "
     "gymnasium environment",
     "sweep": "Monte Carlo sweep over sensors, faults, fusion and warning settings (resumable)",

@@ -8,8 +8,8 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
-from acc_fusion.cli.arguments import osi_output
 from acc_fusion.cli.common import (
+    osi_output,
     report_world,
     sim_config,
     traffic_config,

@@ -1,19 +1,19 @@
-"""``acc-fusion world``: the scripted 2-D scenes — radar and thermal camera seeing every object
-ahead, multi-target trackers, in-path selection — under weather and light conditions: alerts
-by class and by cause per method."""
+"""``acc-fusion world``: the scripted 2-D scenes (or an OpenSCENARIO file) — radar and
+thermal camera seeing every object ahead, multi-target trackers, in-path selection — under
+weather and light conditions: alerts by class and by cause per method."""
 
 from __future__ import annotations
 
 import argparse
 
-from acc_fusion.cli.arguments import osi_output
 from acc_fusion.cli.common import (
+    osi_output,
     sim_config,
     write_summary,
 )
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.outputs import save_figure_atomic, write_csv_atomic
-from acc_fusion.studies.world import world_study
+from acc_fusion.studies.world import scenario_file_study, world_study
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.scenes import SCENES
 
@@ -48,7 +48,11 @@ def run(args: argparse.Namespace) -> int:
     scenes = args.scene or sorted(SCENES)
     config = sim_config(args, runs=50)
     out = args.out
-    study = world_study(config, scenes, conditions, progress=True, osi=osi_output(args))
+    osi = osi_output(args)
+    if args.scenario_file is not None:
+        study = scenario_file_study(config, args.scenario_file, conditions, progress=True, osi=osi)
+    else:
+        study = world_study(config, scenes, conditions, progress=True, osi=osi)
     tables = {"world_scenes": study.scenes(), "world_causes": study.causes()}
     print("\n\n".join(t.format() for t in tables.values()))
     if args.plot:

@@ -242,6 +242,23 @@ class OsiOutput:
         return OsiRecorder(self.folder, config, prefix, vehicle_ids, self.limit)
 
 
+def traced_world(
+    config: SimConfig,
+    source=None,
+    osi: OsiOutput | None = None,
+    prefix: str = "",
+    vehicle_ids: Callable[[], Sequence[str]] | None = None,
+) -> tuple[SimResult, list[Path]]:
+    """:func:`~acc_fusion.sim.world.simulate_world` on ``source`` (``None``: ``config``'s
+    scene), with ``osi`` an OSI trace of its egos written (named ``prefix`` + vehicle): the
+    result and the traces written."""
+    if osi is None:
+        return simulate_world(config, source=source), []
+    with osi.recorder(config, prefix, vehicle_ids) as recorder:
+        result = simulate_world(config, source=source, on_step=recorder)
+    return result, recorder.written
+
+
 class RecordedSensors:
     """The ego's readings and each sensor's detections of a trace written by
     :class:`OsiRecorder`, step by step (its channels hold one message each per step).

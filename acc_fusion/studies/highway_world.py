@@ -7,8 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from acc_fusion.sim.closed_loop import SimConfig
-from acc_fusion.sim.osi_trace import OsiOutput
-from acc_fusion.sim.world import simulate_world
+from acc_fusion.sim.osi_trace import OsiOutput, traced_world
 from acc_fusion.studies.world import WorldStudy
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.highway.config import HighwayConfig
@@ -45,17 +44,11 @@ def highway_world_study(
         with HighwaySource(cfg, progress=progress) as source:
             world = replace(sim.world, conditions=cond)
             run = replace(sim, dt=source.dt, drive=None, world=world)
-            if osi is None:
-                result = simulate_world(run, source=HighwayWorld(source, field))
-            else:
 
-                def names(source=source) -> list[str]:
-                    return [f"ep{source.episode:03d}_v{e:02d}" for e in range(source.n_pairs)]
+            def names(source=source) -> list[str]:
+                return [f"ep{source.episode:03d}_v{e:02d}" for e in range(source.n_pairs)]
 
-                with osi.recorder(run, f"{cfg.env}_{cond.label}_", names) as recorder:
-                    result = simulate_world(
-                        run, source=HighwayWorld(source, field), on_step=recorder
-                    )
-                traces += recorder.written
-        results[(cfg.env, cond.label)] = result.summaries
+            objects = HighwayWorld(source, field)
+            result, written = traced_world(run, objects, osi, f"{cfg.env}_{cond.label}_", names)
+        results[(cfg.env, cond.label)], traces = result.summaries, traces + written
     return WorldStudy(sim, results, where=f"highway-env {cfg.env}", traces=traces)

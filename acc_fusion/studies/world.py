@@ -1,6 +1,7 @@
 """The 2-D world under each weather and light condition, every method: alerts by class and by
 cause — of the scripted scenes (:func:`world_study`, the tables and the figure of ``acc-fusion
-world``) and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open-loop``)."""
+world``), of a scenario file (:func:`scenario_file_study`, ``acc-fusion world --scenario``)
+and of SUMO traffic (:func:`sumo_world_study`, ``acc-fusion sumo --open-loop``)."""
 
 from __future__ import annotations
 
@@ -24,10 +25,12 @@ from acc_fusion.metrics.summary import (
     FCWSummary,
 )
 from acc_fusion.sim.closed_loop import SimConfig
-from acc_fusion.sim.osi_trace import OsiOutput
+from acc_fusion.sim.osi_trace import OsiOutput, traced_world
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import class_table
 from acc_fusion.truth.conditions import Conditions
+from acc_fusion.truth.openscenario.read import read_scenario
+from acc_fusion.truth.procedures import TrackSource
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoConfig
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig
@@ -182,14 +185,30 @@ def world_study(
     jobs = [(s, c) for s in scenes for c in conditions]
     for scene, cond in tqdm(jobs, disable=None if progress else True, desc="scenes"):
         run = replace(config, world=replace(config.world, scene=scene, conditions=cond))
-        if osi is None:
-            result = simulate_world(run)
-        else:
-            with osi.recorder(run, prefix=f"{scene}_{cond.label}_") as recorder:
-                result = simulate_world(run, on_step=recorder)
-            traces += recorder.written
-        results[(scene, cond.label)] = result.summaries
+        result, written = traced_world(run, osi=osi, prefix=f"{scene}_{cond.label}_")
+        results[(scene, cond.label)], traces = result.summaries, traces + written
     return WorldStudy(config, results, traces=traces)
+
+
+def scenario_file_study(
+    config: SimConfig,
+    path: str | Path,
+    conditions: list[Conditions],
+    progress: bool = False,
+    osi: OsiOutput | None = None,
+) -> WorldStudy:
+    """An OpenSCENARIO file (:func:`~acc_fusion.truth.openscenario.read.read_scenario`) in the
+    2-D world under every condition: ``config.runs`` runs of it, each run ending at its stop
+    trigger or at contact (:class:`~acc_fusion.truth.procedures.TrackSource`); with ``osi``,
+    an OSI trace of every run (:class:`OsiOutput`)."""
+    scene = read_scenario(path, config.runs)
+    results, traces = {}, []
+    for cond in tqdm(conditions, disable=None if progress else True, desc="conditions"):
+        run = replace(config, world=replace(config.world, conditions=cond))
+        source = TrackSource(scene, scene.duration, config.dt)
+        result, written = traced_world(run, source, osi, f"{scene.name}_{cond.label}_")
+        results[(scene.name, cond.label)], traces = result.summaries, traces + written
+    return WorldStudy(config, results, where=Path(path).name, traces=traces)
 
 
 def _sumo_world_run(sumo_config: SumoConfig, config: SimConfig, progress: bool):

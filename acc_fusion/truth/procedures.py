@@ -71,6 +71,7 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.units import KMH, G
 from acc_fusion.core.validation import check_choice, check_range
+from acc_fusion.truth.manoeuvre_params import SETTLE_TIME, LVDParams, LVMParams, LVSParams
 from acc_fusion.truth.objects import ObjectKind
 from acc_fusion.truth.scenes import (
     EGO_WIDTH,
@@ -340,6 +341,29 @@ def fmvss127_points(
     return points
 
 
+def nhtsa_fcw_points() -> list[TestPoint]:
+    """NHTSA's FCW confirmation tests (February 2013; :mod:`acc_fusion.truth.manoeuvres`) as
+    test points with the 1-D manoeuvres' defaults and durations: test 1, a stopped lead (LVS,
+    :class:`~acc_fusion.truth.manoeuvre_params.LVSParams`); test 2, a lead braking with a step
+    to its deceleration (LVD, no ramp); test 3, a slower lead (LVM); no manual braking."""
+    lvs, lvd, lvm = LVSParams(), LVDParams(), LVMParams()
+    v, decel, brake = float(lvd.speed), float(lvd.pov_decel), float(lvd.brake_time)
+    closing = float(lvm.sv_speed) - float(lvm.pov_speed)
+    return [
+        TestPoint(float(lvs.sv_speed), 0.0, float(lvs.initial_ttc * lvs.sv_speed),
+                  duration=float(lvs.initial_ttc) + SETTLE_TIME,
+                  label=f"NHTSA FCW test 1 LVS {lvs.sv_speed / KMH:.0f} km/h"),
+        TestPoint(v, v, float(lvd.headway), pov_decel=decel, pov_brake_time=brake,
+                  kind="decelerating", duration=brake + v / decel + SETTLE_TIME,
+                  label=f"NHTSA FCW test 2 LVD {v / KMH:.0f} km/h {lvd.headway:g} m "
+                  f"{decel / G:.2g} g"),
+        TestPoint(float(lvm.sv_speed), float(lvm.pov_speed), float(lvm.initial_ttc) * closing,
+                  kind="slower", duration=float(lvm.initial_ttc) + SETTLE_TIME,
+                  label=f"NHTSA FCW test 3 LVM {lvm.sv_speed / KMH:.0f} km/h to "
+                  f"{lvm.pov_speed / KMH:.0f} km/h"),
+    ]  # fmt: skip
+
+
 def _labelled(point: TestPoint, section: str) -> TestPoint:
     return replace(point, label=f"FMVSS 127 {section} {point.label}")
 
@@ -387,26 +411,20 @@ def procedure_scene(points: Sequence[TestPoint]) -> Scene:
                  float(duration.max()), ego_model="cruise", lead_rule="overlap")  # fmt: skip
 
 
-class ProcedureSource(SceneSource):
-    """The truth source of test points (:func:`procedure_scene`) stepped by ``dt`` [s], with
-    the interface of :class:`~acc_fusion.truth.scenes.SceneSource` (``frame()``,
-    ``advance(ego_brake)``, ``active``, ``collided``, ``collision_speed``, ``t``, ``done``,
-    ``n_steps``); its runs end one by one (module docstring).
+class TrackSource(SceneSource):
+    """A test-track scene as a truth source stepped by ``dt`` [s], with the interface of
+    :class:`~acc_fusion.truth.scenes.SceneSource` (``frame()``, ``advance(ego_brake)``,
+    ``active``, ``collided``, ``collision_speed``, ``t``, ``done``, ``n_steps``); its runs end
+    one by one (module docstring), run ``i`` at ``run_duration[i]`` [s] at the latest (a
+    scalar: every run's).  The scene of test points (:class:`ProcedureSource`) or of a scenario
+    file (:func:`acc_fusion.truth.openscenario.read.read_scenario`)."""
 
-    Attributes:
-        points: the test points, run ``i`` is ``points[i]``.
-        run_duration: ``(N,)`` each run's duration [s].
-        l0_time: ``(N,)`` each run's L0 [s] (:attr:`TestPoint.l0_time`).
-        manual_brake: ``(N,)`` the runs whose trial has manual braking.
-    """
-
-    def __init__(self, points: Sequence[TestPoint], dt: float = 0.05) -> None:
-        self.points, self.config = _check_points(points), None
-        self._setup(procedure_scene(self.points), check_range("dt", dt, 0.0, 1.0, lo_open=True))
-        self.run_duration = np.array([p.duration for p in self.points], dtype=float)
-        self.l0_time = np.array([p.l0_time for p in self.points])
-        self.manual_brake = np.array([p.manual_brake for p in self.points])
-        self._rest = np.zeros(len(self.points))  # how long each SV has stood still [s]
+    def __init__(self, scene: Scene, run_duration: float | np.ndarray, dt: float = 0.05) -> None:
+        self.config = None
+        self._setup(scene, check_range("dt", dt, 0.0, 1.0, lo_open=True))
+        n = scene.ego_speed.shape[0]
+        self.run_duration = np.broadcast_to(np.asarray(run_duration, dtype=float), (n,)).copy()
+        self._rest = np.zeros(n)  # how long each SV has stood still [s]
 
     def advance(self, ego_brake: np.ndarray | None = None) -> None:
         """One step of the running SVs (at constant speed, or braking at ``ego_brake (N,)``
@@ -444,3 +462,21 @@ class ProcedureSource(SceneSource):
         self._end_t = np.where(ended, self.t, self._end_t)
         self._a = np.where(ended, 0.0, self._a)
         self.active = run & ~ended
+
+
+class ProcedureSource(TrackSource):
+    """The truth source of test points (:func:`procedure_scene`), a :class:`TrackSource`.
+
+    Attributes:
+        points: the test points, run ``i`` is ``points[i]``.
+        run_duration: ``(N,)`` each run's duration [s].
+        l0_time: ``(N,)`` each run's L0 [s] (:attr:`TestPoint.l0_time`).
+        manual_brake: ``(N,)`` the runs whose trial has manual braking.
+    """
+
+    def __init__(self, points: Sequence[TestPoint], dt: float = 0.05) -> None:
+        self.points = _check_points(points)
+        durations = np.array([p.duration for p in self.points], dtype=float)
+        super().__init__(procedure_scene(self.points), durations, dt)
+        self.l0_time = np.array([p.l0_time for p in self.points])
+        self.manual_brake = np.array([p.manual_brake for p in self.points])

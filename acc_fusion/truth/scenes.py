@@ -60,6 +60,7 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.truth.manoeuvre_params import IDM, LANE_WIDTH
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind
+from acc_fusion.truth.speed_changes import SpeedChanges
 
 #: (length, width, height [m], rcs [dBsm], thermal contrast [K]) per kind; see the module
 #: docstring for the sources and assumptions.
@@ -73,10 +74,9 @@ SIGNATURES: dict[ObjectKind, tuple[float, float, float, float, float]] = {
     ObjectKind.PLATE: (3.7, 2.4, 0.025, 0.0, 0.5),
 }
 
-#: Longest range of the forward field the scenes report [m] (beyond any sensor's range).
-FIELD_RANGE = 300.0
-#: Half width of the forward field [m].
-FIELD_HALF_WIDTH = 40.0
+#: Longest range [m] (beyond any sensor's range) and half width [m] of the forward field the
+#: scenes report.
+FIELD_RANGE, FIELD_HALF_WIDTH = 300.0, 40.0
 #: Spacing of the guardrail posts [m] (sparse representatives of the rail; assumption).
 GUARDRAIL_SPACING = 25.0
 #: Lateral position of the right guardrail [m]: half a lane, a 2.5 m hard shoulder, 0.5 m.
@@ -145,7 +145,8 @@ class Actors:
     offset moves from ``d0`` to ``d1`` between ``lc_time`` and ``lc_time + lc_duration`` (a
     cosine blend).  Stationary objects have ``v0 = 0``.  ``clearance`` is the height of the
     lower edge above its road [m].  ``present`` (bool; ``None``: all) marks the actors a run
-    has (absent ones pad a batch whose runs differ: in no frame, never a lead).
+    has (absent ones pad a batch whose runs differ: in no frame, never a lead).  ``speed_changes``
+    (``None``: none) add scripted transitions to the speed (:mod:`acc_fusion.truth.speed_changes`).
     """
 
     kind: np.ndarray
@@ -160,6 +161,7 @@ class Actors:
     clearance: np.ndarray
     brake_rise: np.ndarray | None = None
     present: np.ndarray | None = None
+    speed_changes: SpeedChanges | None = None
 
     def centre(self, t: float | np.ndarray) -> tuple[np.ndarray, ...]:
         """Arc length, speed, acceleration, lateral offset and its rate at time ``t`` (or at
@@ -178,6 +180,8 @@ class Actors:
             on = self.brake_rise > 0.0
             s, v = np.where(on, self.s0 + self.v0 * tb + x, s), np.where(on, vr, v)
             a = np.where(on, np.where(t > self.brake_time, -dr, 0.0), a)
+        if self.speed_changes is not None:
+            s, v, a = self.speed_changes.apply(t, s, v, a)
         u = np.clip((t - self.lc_time) / self.lc_duration, 0.0, 1.0)
         d = self.d0 + (self.d1 - self.d0) * 0.5 * (1.0 - np.cos(np.pi * u))
         inside = (u > 0.0) & (u < 1.0)
@@ -201,12 +205,12 @@ def ramp_braking(v0, decel, rise, tau) -> tuple[np.ndarray, ...]:
     return x, np.maximum(v1 - dec * t2, 0.0), decel_now, stop
 
 
-def _actors(n: int, specs: list[dict[str, object]]) -> Actors:
+def _actors(n: int, specs: list[dict[str, object]], changes: SpeedChanges | None = None) -> Actors:
     """Stack actor specs (scalars or ``(n,)`` arrays per field) into :class:`Actors`."""
     defaults = {"v0": 0.0, "d0": 0.0, "brake_time": np.inf, "brake_decel": 0.0,
                 "lc_time": np.inf, "lc_duration": 1.0, "clearance": 0.0, "brake_rise": 0.0,
                 "present": 1.0}  # fmt: skip
-    columns: dict[str, list[np.ndarray]] = {k: [] for k in Actors.__dataclass_fields__}
+    columns: dict[str, list] = {k: [] for k in Actors.__dataclass_fields__ if k != "speed_changes"}
     for spec in specs:
         full = {**defaults, **spec}
         full.setdefault("d1", full["d0"])
@@ -215,7 +219,7 @@ def _actors(n: int, specs: list[dict[str, object]]) -> Actors:
     arrays = {k: np.stack(v, axis=1) for k, v in columns.items()}
     arrays["kind"] = arrays["kind"].astype(np.int8)
     arrays["present"] = arrays["present"] != 0.0
-    return Actors(**arrays)
+    return Actors(**arrays, speed_changes=changes)
 
 
 @dataclass
@@ -365,12 +369,11 @@ class SceneSource:
     step, :meth:`advance` moves one step (the egos by the IDM behind their true in-path
     lead, or at constant speed).  ``collided`` marks runs whose ego reached its lead (it then
     moves with it).  ``active``: the runs going on; all, unless a subclass ends runs at
-    ``_end_t`` (:class:`acc_fusion.truth.procedures.ProcedureSource`)."""
+    ``_end_t`` (:class:`acc_fusion.truth.procedures.TrackSource`)."""
 
     def __init__(self, config: SceneConfig, seed: int | np.random.Generator | None = None):
-        rng = np.random.default_rng(seed)
         self.config: SceneConfig | None = config
-        self._setup(SCENES[config.scene](config.runs, rng), config.dt)
+        self._setup(SCENES[config.scene](config.runs, np.random.default_rng(seed)), config.dt)
 
     def _setup(self, scene: Scene, dt: float) -> None:
         self.scene, self.dt = scene, dt

@@ -111,7 +111,8 @@ gallery = [
     "`python scripts/docs_snippets.py --examples` ran it.\n"
 ]
 # From a first study to the largest; any other example after them.
-ORDER = ("scripted_study", "sumo_study", "sweep", "gym_sb3", "gym_braking_ppo", "rllib_sumo_ppo")
+ORDER = ("scripted_study", "sumo_study", "osi_trace", "sweep", "gym_sb3", "gym_braking_ppo",
+         "rllib_sumo_ppo")  # fmt: skip
 for path in sorted(EXAMPLES.glob("*.py"), key=lambda p: (ORDER + (p.stem,)).index(p.stem)):
     title, _, body = ast.get_docstring(ast.parse(path.read_text())).partition("\n\n")
     body = COMMANDS_BLOCK.sub(lambda m: f"```bash\n{textwrap.dedent(m.group(0))}```\n", body + "\n")

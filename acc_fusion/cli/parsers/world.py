@@ -21,17 +21,27 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "world",
         help=summary,
-        description="Run the scripted 2-D scenes through the object-level pipeline: a radar and "
+        description="Run the scripted 2-D scenes (or an OpenSCENARIO file, --scenario) "
+        "through the object-level pipeline: a radar and "
         "a thermal camera that see every object ahead, a multi-target tracker per sensor, "
         "track-to-track association, every method's estimator per object, in-path target "
         "selection and the warning. Prints per scene the alerts by class (judged from truth) "
         "and, pooled over the scenes, the nuisance and sensing-false alerts by cause.",
     )
-    p.add_argument(
+    which = p.add_mutually_exclusive_group()
+    which.add_argument(
         "--scene",
         action="append",
         choices=sorted(SCENES),
         help="a scene (repeatable; default: all)",
+    )
+    which.add_argument(
+        "--scenario",
+        dest="scenario_file",
+        metavar="FILE.xosc",
+        help="an OpenSCENARIO XML file instead of the scenes (the longitudinal and "
+        "lane-keeping subset the 2-D world reads; its subject vehicle is the entity 'Ego'): "
+        "--runs copies of it, each with its own sensor noise",
     )
     p.add_argument(
         "--conditions",
