@@ -162,3 +162,23 @@ def test_the_commands_write_traces_and_replay_them_to_the_same_alerts(tmp_path, 
         for key in ("warnings", "nuisance", "sensing_false", "relevant_missed", "by_cause"):
             assert replayed[m][key] == recorded[m][key], (m, key)
     assert sum(recorded[m]["warnings"] for m in METHODS) > 0
+
+
+def test_an_openscenario_file_runs_into_an_osi_trace(tmp_path, capsys):
+    """An exported OpenSCENARIO test, run in the 2-D world with ``--osi``, leaves a trace per
+    run that replays to the run's warnings: the two standards meet in one command line."""
+    pytest.importorskip("scenariogeneration")
+    assert main(["scenarios", "export", "--protocol", "nhtsa-fcw", "--out", str(tmp_path)]) == 0
+    (scenario,) = tmp_path.glob("*_lvd_*.xosc")
+    traces, out = tmp_path / "osi", tmp_path / "world"
+    args = ["world", "--scenario", str(scenario), "--runs", "2", "--conditions", "day"]
+    assert main([*args, "--osi", str(traces), "--out", str(out)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote 2 OSI traces in {traces}"
+    (recorded,) = json.loads((out / "world.json").read_text()).values()
+    assert main(["replay", "--format", "osi", "--path", str(traces), "--out", str(out)]) == 0
+    (summary,) = out.glob("replay_*.json")
+    replayed = json.loads(summary.read_text())
+    for m in METHODS:
+        assert replayed[m]["warnings"] == recorded[m]["warnings"], m
+        assert replayed[m]["by_cause"] == recorded[m]["by_cause"], m
+    assert sum(recorded[m]["warnings"] for m in METHODS) > 0
