@@ -39,7 +39,7 @@ format: $(STAMP)
 	$(BIN)/ruff check --fix acc_fusion scripts tests examples docs/gen
 
 bench: $(STAMP)
-	$(BIN)/python scripts/bench_filters.py --quick
+	$(BIN)/python scripts/bench_all.py
 
 docs: $(STAMP)
 	DISABLE_MKDOCS_2_WARNING=true NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve

@@ -46,6 +46,7 @@ interval, is the growth that the traffic's size does not explain: a leak shows a
 pipeline slope above bare SUMO's.
 
     python scripts/bench_world.py               # 300 s simulated
+    python scripts/bench_world.py --quick       # 90 s simulated (make bench)
     python scripts/bench_world.py --end 1800 --capacity 2048  # the half hour: memory check
 """
 
@@ -280,7 +281,8 @@ SAMPLED = ("bare", "inline", "pipeline")
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--end", type=float, default=300.0, help="simulated seconds (300)")
+    parser.add_argument("--end", type=float, help="simulated seconds (300; --quick 90)")
+    parser.add_argument("--quick", action="store_true", help="a shorter run: --end 90")
     parser.add_argument("--warmup", type=float, default=30.0, help="untimed seconds (30)")
     parser.add_argument("--seed", type=int, default=0, help="SUMO's seed (0)")
     parser.add_argument(
@@ -291,6 +293,7 @@ def main(argv: list[str] | None = None) -> None:
         "--sample", type=float, default=60.0, help="memory sampling period, simulated s (60)"
     )
     args = parser.parse_args(argv)
+    args.end = args.end or (90.0 if args.quick else 300.0)
     if args.sample <= 0:
         parser.error(f"--sample must be positive, got {args.sample}")
     if not 0 <= args.warmup < args.end:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import re
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -170,3 +172,23 @@ def test_federated_breakdown_attributes_every_seen_alert():
     km = {label: float(v) for label, v in rows}
     assert sum(km.values()) == pytest.approx(exposure, rel=1e-3)
     assert km["40-80"] == km["80-inf"] == 0.0 < km["0-10"]
+
+
+def test_bench_all_tabulates_the_benchmarks_it_runs(tmp_path):
+    """``make bench``'s table: each chosen benchmark run as its own script, its figure read
+    from its last ``NAME=value``, judged against its target, written as JSON and Markdown."""
+    json_path, md_path = tmp_path / "bench.json", tmp_path / "bench.md"
+    args = ["--only", "replay", "--repeat", "2", "--json", str(json_path), "--markdown"]
+    out = run("bench_all.py", *args, str(md_path)).stdout.splitlines()
+    assert out[0].startswith("Benchmarks, ")
+    assert re.match(r"^benchmarks_passed=[01]/1$", out[-1])
+    data = json.loads(json_path.read_text())
+    (row,) = data["rows"]
+    assert row["figure"] == "replay pair-steps/s" and len(row["values"]) == 2
+    assert row["value"] == statistics.median(row["values"]) > 0
+    assert row["pass"] == ("yes" if row["value"] >= 1e6 else "no")
+    table = md_path.read_text()
+    assert (
+        "| replay pair-steps/s |" in table and "`python scripts/bench_replay.py --quick`" in table
+    )
+    assert run("bench_all.py", "--repeat", "0", ok=False).returncode == 2
