@@ -283,8 +283,9 @@ class ScenarioSource:
 
     def state(self) -> ScenarioState:
         """The full state of every run now."""
-        _, target, rate = self._controls()
-        slot, has, gap, lat = self._leader()
+        leader = self._leader()
+        _, target, rate = self._controls(leader)
+        slot, has, gap, lat = leader
         active = self.active
         show = has & (self._run_t <= self._end_time + TIME_TOL)
         moving = active[:, None] & (self._v != target)
@@ -428,14 +429,15 @@ class ScenarioSource:
         slot = np.argmin(gaps, axis=1)
         return slot, candidate.any(axis=1), gaps[self._rows, slot], lat[self._rows, slot]
 
-    def _controls(self):
-        """Ego acceleration and the other vehicles' target speeds and rates for the next step."""
+    def _controls(self, leader=None):
+        """Ego acceleration and the other vehicles' target speeds and rates for the next step
+        (``leader``: :meth:`_leader` of the current state, if already known)."""
         plan = self._plan
         now = self._run_t[:, None, None] + TIME_TOL
         seg = np.sum(plan.seg_t <= now, axis=-1, keepdims=True) - 1
         target = np.take_along_axis(plan.seg_v, seg, axis=-1)[..., 0]
         rate = np.take_along_axis(plan.seg_rate, seg, axis=-1)[..., 0]
-        slot, has, gap, _ = self._leader()
+        slot, has, gap, _ = self._leader() if leader is None else leader
         lead_v = self._v[self._rows, slot]
         idm = IDM.accel(self._ego_v, plan.desired_speed, plan.time_headway, gap, lead_v, has)
         own = np.where(plan.idm & ~self._hold, idm, 0.0)
