@@ -283,9 +283,8 @@ class ScenarioSource:
 
     def state(self) -> ScenarioState:
         """The full state of every run now."""
-        leader = self._leader()
+        slot, has, gap, lat = leader = self._leader()
         _, target, rate = self._controls(leader)
-        slot, has, gap, lat = leader
         active = self.active
         show = has & (self._run_t <= self._end_time + TIME_TOL)
         moving = active[:, None] & (self._v != target)
@@ -430,8 +429,7 @@ class ScenarioSource:
         return slot, candidate.any(axis=1), gaps[self._rows, slot], lat[self._rows, slot]
 
     def _controls(self, leader=None):
-        """Ego acceleration and the other vehicles' target speeds and rates for the next step
-        (``leader``: :meth:`_leader` of the current state, if already known)."""
+        """Ego acceleration, other vehicles' target speeds and rates (``leader``: known)."""
         plan = self._plan
         now = self._run_t[:, None, None] + TIME_TOL
         seg = np.sum(plan.seg_t <= now, axis=-1, keepdims=True) - 1
