@@ -182,3 +182,25 @@ def test_an_openscenario_file_runs_into_an_osi_trace(tmp_path, capsys):
         assert replayed[m]["warnings"] == recorded[m]["warnings"], m
         assert replayed[m]["by_cause"] == recorded[m]["by_cause"], m
     assert sum(recorded[m]["warnings"] for m in METHODS) > 0
+
+
+def test_a_replay_writes_its_own_traces(tmp_path, capsys):
+    """``replay --format osi --osi DIR`` traces the replay: a ground truth alone comes out with
+    this project's detections, tracks and estimates, and those replay to the same alerts."""
+    cfg, result, _, traces = _record(tmp_path / "first", "lead_brakes")
+    again = tmp_path / "again"
+    args = ["replay", "--format", "osi", "--path", str(tmp_path / "first")]
+    assert main([*args, "--osi", str(again), "--out", str(tmp_path / "r1")]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote 2 OSI traces in {again}"
+    assert sorted(p.name for p in again.glob("*.mcap")) == [p.name for p in traces]
+    assert (
+        main(["replay", "--format", "osi", "--path", str(again), "--out", str(tmp_path / "r2")])
+        == 0
+    )
+    first, second = (
+        json.loads(next((tmp_path / d).glob("*.json")).read_text()) for d in ("r1", "r2")
+    )
+    for m in METHODS:
+        assert first[m]["warnings"] == second[m]["warnings"] == result.summaries[m].warnings
+    assert main([*args, "--pair", "--osi", str(tmp_path / "no")]) == 2
+    assert "--osi writes the 2-D world's traces" in capsys.readouterr().err

@@ -10,6 +10,7 @@ import argparse
 import re
 
 from acc_fusion.cli.common import (
+    osi_output,
     sim_config,
     write_summary,
 )
@@ -36,7 +37,11 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--pair and --topic are settings of --format osi (the other formats "
                           "replay the 1-D pair)")  # fmt: skip
     world = args.format == "osi" and not args.pair
-    study = replay_study(config, sim, progress=True, world=world, topic=args.topic)
+    if args.osi is not None and not world:
+        raise ConfigError("--osi writes the 2-D world's traces: give --format osi without --pair")
+    study = replay_study(
+        config, sim, progress=True, world=world, topic=args.topic, osi=osi_output(args)
+    )
     tables = {
         "": study.table(),
         "_classes": study.classes(),
@@ -66,4 +71,6 @@ def run(args: argparse.Namespace) -> int:
                 **{m: s.as_dict() for m, s in study.summaries.items()},
             },
         )
+    if args.osi is not None:
+        print(f"wrote {len(list(args.osi.glob('*.mcap')))} OSI traces in {args.osi}")
     return 0

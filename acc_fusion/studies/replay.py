@@ -6,6 +6,7 @@ ASAM OSI traces, each host an ego, through the 1-D pair or the 2-D world
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -14,9 +15,10 @@ from acc_fusion.core.plots import plt
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, simulate
-from acc_fusion.sim.osi_trace import has_sensors, recorded_perception
+from acc_fusion.sim.osi_trace import OsiOutput, has_sensors, recorded_perception
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import SUMMARY_COLUMNS, class_table, summary_row
+from acc_fusion.studies.crashes import chain
 from acc_fusion.studies.world import WorldStudy
 from acc_fusion.truth.osi.source import OsiPairs, OsiTraces, trace_paths
 from acc_fusion.truth.replay.crosscheck import GAP_BINS, THW_BINS, TOLERANCES
@@ -139,12 +141,13 @@ def replay_study(
     progress: bool = False,
     world: bool = False,
     topic: str | None = None,
+    osi: OsiOutput | None = None,
 ) -> ReplayStudy:
     """Replay ``config``'s recordings through ``sim``'s pipeline (its step replaced by the
     recordings' frame period), open loop: every method of ``sim`` watches, no driver hears.
-    Format ``osi``: :func:`osi_replay_study` (``world``, ``topic``)."""
+    Format ``osi``: :func:`osi_replay_study` (``world``, ``topic``, ``osi``)."""
     if config.format == "osi":
-        return osi_replay_study(config, sim, progress=progress, world=world, topic=topic)
+        return osi_replay_study(config, sim, progress=progress, world=world, topic=topic, osi=osi)
     with ReplaySource(config, progress=progress) as source:
         result = simulate(replace(sim, dt=source.dt, drive=None), source=source)
         return ReplayStudy(config, result.summaries, source.stats, result.steps)
@@ -192,6 +195,7 @@ def osi_replay_study(
     progress: bool = False,
     world: bool = False,
     topic: str | None = None,
+    osi: OsiOutput | None = None,
 ) -> ReplayStudy:
     """Replay the OSI traces of ``config.path`` (a ``.mcap`` or ``.osi`` file, or a folder of
     them; ``topic``: the MCAP channel), each host an ego
@@ -202,16 +206,23 @@ def osi_replay_study(
     project's runs (:class:`~acc_fusion.sim.osi_trace.OsiRecorder`) replay in the 2-D world
     with their recorded detections and readings rather than drawn ones
     (:func:`~acc_fusion.sim.osi_trace.recorded_perception`), so with the recorded run's
-    ``sim`` they give its alerts again."""
+    ``sim`` they give its alerts again.  With ``osi`` (the 2-D world) each trace's replay is
+    written as a trace of ours, named as its source (a foreign ground truth comes out with
+    this project's detections, tracks and estimates)."""
     paths = trace_paths(config.path)
     source = OsiTraces(paths, topic=topic)
     log = _TraceLog(source)
     sim = replace(sim, dt=source.dt, drive=None)
     if world:
         sensed = recorded_perception(paths) if all(map(has_sensors, paths)) else None
-        result = simulate_world(
-            sim, source=source, progress=progress, on_step=log, perception=sensed
-        )
+
+        def names() -> list[str]:
+            return ["" if tr.done else tr.path.stem for tr in source.traces]
+
+        recorder = None if osi is None else osi.recorder(sim, "", names)
+        with recorder or contextlib.nullcontext():
+            result = simulate_world(sim, source=source, progress=progress,
+                                    on_step=chain(log, recorder), perception=sensed)  # fmt: skip
     else:
         result = simulate(sim, source=OsiPairs(source), progress=progress, on_step=log)
     return ReplayStudy(config, result.summaries, log.stats(), result.steps, sim if world else None)

@@ -6,6 +6,7 @@ import argparse
 
 from acc_fusion.cli.arguments import (
     add_config_arguments,
+    add_osi_argument,
     output_folder,
     positive_int,
 )
@@ -71,6 +72,7 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         help="osi: the MCAP channel to read (default: the first GroundTruth channel, else the "
         "first SensorView channel)",
     )
+    add_osi_argument(p, "the replay (osi, 2-D world; files named as their source traces)")
     add_config_arguments(p)
     p.add_argument(
         "--out",
