@@ -70,6 +70,17 @@ def test_sumo_command_writes_the_table_and_files(tmp_path, capsys):
         assert b["avoided"] + b["crashes_on"] == b["crashes_off"]
         assert b["reduction_lo"] <= b["reduction"] <= b["reduction_hi"]
     assert (tmp_path / "sumo_onramp_seed0.png").stat().st_size > 10_000
+    # Every crash-relevant situation and crash by hazard: the totals are the summary's and the
+    # benefit's, and 20 injected brakings per vehicle-hour make some of them.
+    rows = {(r["hazard"], r["driver"]): r for r in data["hazards"]}
+    total = rows.pop(("all", "all"))
+    assert total["relevant"] == data["fcw_off"]["federated"]["relevant"]
+    assert total["crashes"] == benefit["crashes_off"]
+    assert sum(r["relevant"] for r in rows.values()) == total["relevant"]
+    assert sum(r["crashes"] for r in rows.values()) == total["crashes"]
+    assert sum(r["relevant"] for (h, _), r in rows.items() if h == "lead_braking") > 0
+    assert "re-weighted to naturalistic rates" in out and "nan" not in out
+    assert (tmp_path / "sumo_onramp_seed0_hazards.csv").is_file()
 
 
 def test_the_oracle_ttc_agrees_with_sumos_ssm_device_when_no_driver_looks_away(capsys):

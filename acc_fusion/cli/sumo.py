@@ -107,10 +107,14 @@ def run(args: argparse.Namespace) -> int:
     replayed = study.replayed
     if replayed:
         print("\n" + study.replayed_table().format())
+    hazards = study.hazard_table()
+    if hazards is not None:
+        print("\n" + hazards.format())
     if args.osi is not None:
         print(f"\nwrote {len(list(args.osi.glob('*.mcap')))} OSI traces in {args.osi}")
     if out is not None:
         tables = {**causes, **({} if aeb is None else {"aeb": aeb})}
+        tables |= {} if hazards is None else {"hazards": hazards}
         for name, t in tables.items():
             write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
         if world:
@@ -126,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
             benefit=study.benefit().as_dict(),
             benefit_by_method={m: b.as_dict() for m, b in study.benefit_by_method().items()},
             benefit_replayed={m: b.as_dict() for m, b in replayed.items()},
+            hazards=None if hazards is None else hazards.rows,
             errors=list(study.errors().values()),
         )
     return 1 if study.errors() else 0

@@ -23,7 +23,7 @@ def _usable(system, oracle, ttc, speed, active):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _finish(pairs, on, live, ended):  # pragma: no cover - compiled
-    """``_Events.finish`` of the pairs in ``pairs (N,)``: their events end (not on, not live,
+    """``EventState.finish`` of the pairs in ``pairs (N,)``: their events end (not on, not live,
     in place); ``ended (N,)`` receives those whose event was live."""
     for i in range(pairs.size):
         ended[i] = pairs[i] and live[i]
@@ -34,7 +34,7 @@ def _finish(pairs, on, live, ended):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _event_step(t, now, horizon, on, live, start, end):  # pragma: no cover - compiled
-    """Advance one pair's event of one kind (an ``_Events`` of :mod:`acc_fusion.metrics.events`)
+    """Advance one pair's event of one kind (an ``EventState`` of :mod:`acc_fusion.metrics.events`)
     to time ``t`` with the flag ``now``.
 
     Takes and returns the pair's ``(on, live, start, end)``, preceded on return by whether a
@@ -54,6 +54,16 @@ def _event_step(t, now, horizon, on, live, start, end):  # pragma: no cover - co
 
 
 @njit(cache=True)
+def _advance(t, now, horizon, on, live, start, end, new, ended):  # pragma: no cover - compiled
+    """:func:`_event_step` of every pair (arrays ``(N,)``, in place); ``new (N,)`` receives
+    the pairs whose event starts at ``t``, ``ended (N,)`` those whose event ended."""
+    for i in range(now.size):
+        new[i], ended[i], on[i], live[i], start[i], end[i] = _event_step(
+            t, now[i], horizon, on[i], live[i], start[i], end[i]
+        )
+
+
+@njit(cache=True)
 def _record(
     t, system, oracle, ttc, speed, active, collided, relevant, warn_level, horizon, dt,
     w_on, w_live, w_matched, w_flagged, w_start, w_end,
@@ -64,7 +74,7 @@ def _record(
 ):  # pragma: no cover - compiled  # fmt: skip
     """One step of :meth:`~acc_fusion.metrics.events.FCWMetrics.update` on checked inputs, in
     place (``w_*``: the warnings, ``h_*``: the threats, ``c_*``: the crash-relevant situations,
-    as ``_Events``; counts in the order of :data:`~acc_fusion.metrics.events.COUNTS`).
+    as ``EventState``; counts in the order of :data:`~acc_fusion.metrics.events.COUNTS`).
 
     Rows 0 to 4 of ``values`` receive, in the order of the pairs, the TTC at the new warnings,
     the onset TTC of the newly matched warnings, the lead times of the newly detected threats,

@@ -95,7 +95,7 @@ from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.slots import PairState, pair_mask
 from acc_fusion.core.validation import check_mask, check_range
-from acc_fusion.metrics.event_kernels import _finish, _record, _usable
+from acc_fusion.metrics.event_kernels import _advance, _finish, _record, _usable
 from acc_fusion.metrics.stats import Histogram
 from acc_fusion.metrics.summary import (
     ALERT_CLASSES,
@@ -119,7 +119,7 @@ _LEAD, _NOISE = CAUSES.index("lead"), CAUSES.index("noise")
 _CAUSE_CELLS = tuple((ALERT_CLASSES.index(c), CAUSES.index(k)) for c, k in CAUSE_CELLS)
 
 
-class _Events(PairState):
+class EventState(PairState):
     """Per-pair state of one kind of event (warnings, threats or crash-relevant situations);
     see the module docstring.
 
@@ -143,6 +143,16 @@ class _Events(PairState):
     def arrays(self) -> tuple[np.ndarray, ...]:
         """``(on, live, matched, flagged, start, end)``, the arrays :func:`_record` advances."""
         return self.on, self.live, self.matched, self.flagged, self.start, self.end
+
+    def advance(self, t: float, now: np.ndarray, horizon: float) -> tuple[np.ndarray, np.ndarray]:
+        """Advance every pair to time ``t`` with the flags ``now (N,)`` (events end
+        ``horizon`` seconds after their last interval, as :class:`FCWMetrics`'s with its
+        ``tolerance``); returns the pairs whose event starts at ``t`` and those whose event
+        ended."""
+        new, ended = np.empty(self.live.size, dtype=bool), np.empty(self.live.size, dtype=bool)
+        _advance(float(t), now, float(horizon), self.on, self.live, self.start, self.end, new,
+                 ended)  # fmt: skip
+        return new, ended
 
     def finish(self, pairs: np.ndarray | None = None) -> np.ndarray:
         """End the live events of ``pairs`` (a boolean mask; all by default); returns the
@@ -182,9 +192,9 @@ class FCWMetrics(PairState):
         self.tolerance = check_range("tolerance", tolerance, 0.0, math.inf, hi_open=True)
         self.warn_level = int(warn_level)
         self._horizon = self.tolerance + 1e-6 * self.dt
-        self._warnings = _Events(self.n_pairs)
-        self._threats = _Events(self.n_pairs)
-        self._relevant = _Events(self.n_pairs)
+        self._warnings = EventState(self.n_pairs)
+        self._threats = EventState(self.n_pairs)
+        self._relevant = EventState(self.n_pairs)
         self._onset_ttc = np.zeros(self.n_pairs)
         self._collided = np.zeros(self.n_pairs, dtype=bool)
         self._last_t = -math.inf

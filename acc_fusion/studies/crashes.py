@@ -1,7 +1,8 @@
 """Which units (vehicles, or episode slots) a traffic run drove and which of them ran into
 their lead, at what impact speed: the pairing of FCW off and on in
-:mod:`acc_fusion.metrics.benefit`; and the last seconds before each crash, for the replay of
-:mod:`acc_fusion.metrics.counterfactual`."""
+:mod:`acc_fusion.metrics.benefit`; the last seconds before each crash, for the replay of
+:mod:`acc_fusion.metrics.counterfactual`; and the hazard that made each crash-relevant
+situation and crash (:mod:`acc_fusion.metrics.hazards`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,10 @@ from collections.abc import Callable, Hashable, Sequence
 
 import numpy as np
 
+from acc_fusion.metrics import hazards as hz
 from acc_fusion.metrics.counterfactual import HISTORY_S, ConflictRecord
+from acc_fusion.metrics.events import EventState
+from acc_fusion.metrics.hazards import CATEGORIES, HazardCounts, category
 from acc_fusion.sim.closed_loop import StepView
 
 
@@ -26,11 +30,15 @@ class CrashLog:
         history: keep each unit's last :data:`~acc_fusion.metrics.counterfactual.HISTORY_S`
             seconds and, at its crash, its :class:`ConflictRecord` (needs the drivers of a
             closed loop, :attr:`StepView.driver`).
+        hazards: a :class:`HazardLog` called before this hook at every step: each crash's
+            hazard category goes into :attr:`causes`.
 
     Attributes:
         units: every unit seen driving.
         crashes: impact speed [m/s] of every unit that ran into its lead (its first contact).
         conflicts: with ``history``, the :class:`ConflictRecord` of every crash, by unit.
+        causes: with ``hazards``, the category of every crash (an index into
+            :data:`~acc_fusion.metrics.hazards.CATEGORIES`), by unit.
     """
 
     _FLOATS = ("t", "gap", "ego_speed", "lead_speed", "lead_accel")
@@ -43,8 +51,10 @@ class CrashLog:
         *,
         dt: float = 0.1,
         history: bool = False,
+        hazards: HazardLog | None = None,
     ) -> None:
-        self.source, self._units = source, units
+        self.source, self._units, self.hazards = source, units, hazards
+        self.causes: dict = {}
         self.units: set = set()
         self.crashes: dict = {}
         self.conflicts: dict[Hashable, ConflictRecord] = {}
@@ -63,6 +73,8 @@ class CrashLog:
                 self.crashes[unit] = float(src.collision_speed[i])
                 if self._steps:  # an emptied slot's last step is no longer its vehicle's
                     self.conflicts[unit] = self._record(i, emptied=units[i] is None)
+                if self.hazards is not None:
+                    self.causes[unit] = self.hazards.of_slot(i)
         self.units.update(units[i] for i in np.flatnonzero(src.active[:k]))
         self._last = units
         self._step += 1
@@ -108,6 +120,88 @@ class CrashLog:
 
     def _at(self, i: int):
         return self._last[i] if i < len(self._last) else None
+
+
+class HazardLog:
+    """An ``on_step`` hook of a closed loop on an in-process
+    :class:`~acc_fusion.truth.sumo.source.SumoSource`: the hazard category of each crash-relevant
+    situation (:mod:`acc_fusion.metrics.hazards`), and the drivers' time with their eyes off
+    the road.  Run it before the :class:`CrashLog` that reads it.
+
+    Args:
+        source: the source (``active``, ``reassigned``, ``inattentive``, ``braking_leaders()``,
+            ``dt``, ``config.hazard_rate``).
+        tolerance: the matching window of the metrics [s], which also ends a situation
+            (:class:`~acc_fusion.metrics.events.FCWMetrics`).
+    """
+
+    def __init__(self, source, tolerance: float = 1.0) -> None:
+        n = len(source.active)
+        self.source, self.tolerance = source, tolerance
+        self._situations = EventState(n)
+        # The flags (metrics.hazards.category) each slot's live situation met so far, and
+        # those of its present step.
+        self._met, self._now = np.zeros(n, dtype=np.int8), np.zeros(n, dtype=np.int8)
+        self._braked_at = np.full(n, -np.inf)  # last injected braking of the slot's leader
+        self._braked_by = np.full(n, -1, dtype=np.int64)  # that leader's id
+        self._leader = np.full(n, -1, dtype=np.int64)  # the slot's leader at the last step
+        self._changed_at = np.full(n, -np.inf)  # when another vehicle last took that place
+        self._relevant = np.zeros(len(CATEGORIES), dtype=np.int64)
+        self._driven = self._eyes_off = 0
+
+    def __call__(self, view: StepView) -> None:
+        src, f, k, n = self.source, view.frame, len(view.ttc), len(self._met)
+        t, leader = f.t, f.leader_id[:k]
+        new = np.zeros(n, dtype=bool)
+        new[:k] = src.reassigned[:k]
+        self._count(self._situations.finish(new))
+        self._braked_at[new], self._braked_by[new], self._leader[new] = -np.inf, -1, -1
+        self._changed_at[new] = -np.inf
+        braking = np.isin(leader, src.braking_leaders()) & (leader >= 0)
+        self._braked_at[:k][braking], self._braked_by[:k][braking] = t, leader[braking]
+        before = self._leader[:k]
+        self._changed_at[:k][(before >= 0) & (leader >= 0) & (leader != before)] = t
+        self._leader[:k] = leader
+        lead = (self._braked_by[:k] == leader) & (t - self._braked_at[:k] <= hz.LEAD_BRAKING_WINDOW)
+        lane = t - self._changed_at[:k] <= hz.LANE_CHANGE_WINDOW
+        active, late = src.active[:k], src.inattentive[:k]
+        flags = hz.LEAD_BRAKING * lead + hz.LANE_CHANGE * lane + hz.LATE * late
+        flags += hz.DISTRACTED * view.driver.holding[:k]
+        # A slot emptied by its crash keeps its last step's flags.
+        self._now[:k] = np.where(active | new[:k], flags, self._now[:k])
+        now = np.zeros(n, dtype=bool)
+        now[:k] = view.relevant
+        onset, ended = self._situations.advance(t, now, self.tolerance)
+        self._count(ended)
+        self._met[onset] = 0
+        self._met |= np.where(self._situations.live, self._now, 0).astype(np.int8)
+        self._driven += int(active.sum())
+        self._eyes_off += int((active & view.driver.eyes_off[:k]).sum())
+
+    def _count(self, ended: np.ndarray) -> None:
+        self._relevant += np.bincount(category(self._met[ended]), minlength=len(CATEGORIES))
+
+    def of_slot(self, i: int) -> int:
+        """The category of slot ``i``'s crash at this step: that of the situation it ends so
+        far (every process met from its onset on), or of its own step without one."""
+        flags = self._met[i] if self._situations.live[i] else self._now[i]
+        return int(category(flags))
+
+    def counts(self, causes: dict) -> HazardCounts:
+        """The :class:`HazardCounts` of the run (the situations still live count as they are),
+        with the crashes' ``causes`` (:attr:`CrashLog.causes`)."""
+        live = category(self._met[self._situations.live])
+        relevant = self._relevant + np.bincount(live, minlength=len(CATEGORIES))
+        crashes = np.bincount(np.fromiter(causes.values(), dtype=np.int64, count=len(causes)),
+                              minlength=len(CATEGORIES))  # fmt: skip
+        dt = self.source.dt
+        return HazardCounts(
+            tuple(int(x) for x in relevant),
+            tuple(int(x) for x in crashes),
+            self._driven * dt,
+            self._eyes_off * dt,
+            float(self.source.config.hazard_rate),
+        )
 
 
 def chain(*hooks: Callable[[StepView], None] | None) -> Callable[[StepView], None]:

@@ -32,12 +32,13 @@ from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
+from acc_fusion.metrics.hazards import HazardCounts, NaturalisticRates, hazard_table
 from acc_fusion.metrics.summary import CAUSES, FALSE_CLASSES, FCWSummary, pool_summaries
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.sim.osi_trace import OsiOutput
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.compare import benefit_table, class_table, exposure_km, on_off_table
-from acc_fusion.studies.crashes import CrashLog, chain
+from acc_fusion.studies.crashes import CrashLog, HazardLog, chain
 from acc_fusion.truth.driver import DriverConfig
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
@@ -73,7 +74,9 @@ class SumoRun:
     ``conflicts``: the FCW-off closed loop's record of each crash, for the replay of
     :mod:`acc_fusion.metrics.counterfactual` (``None`` in other runs);
     ``ssm_pairs``: (oracle, SSM) minimum TTC [s] per vehicle, ``None`` without the cross-check;
-    ``aeb``: the AEB's activations by class (a run with AEB, else ``None``).
+    ``aeb``: the AEB's activations by class (a run with AEB, else ``None``);
+    ``by_hazard``: the crash-relevant situations and crashes by hazard (a closed loop, else
+    ``None``; :mod:`acc_fusion.metrics.hazards`).
     """
 
     summaries: dict[str, FCWSummary]
@@ -87,6 +90,7 @@ class SumoRun:
     crashes: dict[str, float] = field(default_factory=dict)
     conflicts: list[ConflictRecord] | None = None
     aeb: FCWSummary | None = None
+    by_hazard: HazardCounts | None = None
 
 
 def _run(
@@ -113,9 +117,11 @@ def _run(
     background = sim.drive is None and not config.gui
     with BackgroundSumoSource(config, objects) if background else SumoSource(config) as source:
         history = sim.drive is not None and not warnings_on
-        crashes = CrashLog(source, lambda: source.vehicle_ids, dt=source.dt, history=history)
+        hazards = None if background or sim.drive is None else HazardLog(source, sim.tolerance)
+        crashes = CrashLog(source, lambda: source.vehicle_ids, dt=source.dt, history=history,
+                           hazards=hazards)  # fmt: skip
         min_ttc = _MinTTC(source) if cross_check else None
-        hook = chain(min_ttc, crashes)
+        hook = chain(min_ttc, hazards, crashes)
         if sumo_config.gui:
             method = sim.methods[-1]
             hook = chain(hook, lambda view: source.set_warning_colors(view.levels[method]))
@@ -156,6 +162,7 @@ def _run(
             crashes.crashes,
             list(crashes.conflicts.values()) if history else None,
             aeb,
+            None if hazards is None else hazards.counts(crashes.causes),
         )
 
 
@@ -294,6 +301,23 @@ class SumoStudy:
         )
         return benefit_table(title, self.replayed, note=note)
 
+    def hazard_table(self, rates: NaturalisticRates | None = None) -> Table | None:
+        """The FCW-off run's crash-relevant situations and crashes by hazard, as simulated and
+        re-weighted to the naturalistic ``rates`` (:mod:`acc_fusion.metrics.hazards`), with
+        the FCW-on run's re-weighted reduction; ``None`` when the FCW-off run was open loop."""
+        off, on = self.off, self.on
+        if off.by_hazard is None or not off.summaries:
+            return None
+        summary = next(iter(off.summaries.values()))
+        title = (
+            f"Crash-relevant situations and crashes by hazard, {self.sumocfg.name}, FCW off: "
+            "as simulated and re-weighted to naturalistic rates"
+        )
+        return hazard_table(
+            title, off.by_hazard, summary.km, summary.hours, rates or NaturalisticRates(),
+            on.by_hazard, exposure_km(on.summaries),
+        )  # fmt: skip
+
     @staticmethod
     def _drive(run: SumoRun) -> str:
         return next(iter(run.summaries), "fcw")
@@ -390,9 +414,11 @@ def pool_runs(runs: dict[int, SumoRun]) -> SumoRun:
     conflicts = None
     if all(runs[k].conflicts is not None for k in seeds):
         conflicts = [c for k in seeds for c in runs[k].conflicts]
-    aeb = None
+    aeb = by_hazard = None
     if all(runs[k].aeb is not None for k in seeds):
         aeb = pool_summaries([runs[k].aeb for k in seeds])
+    if all(runs[k].by_hazard is not None for k in seeds):
+        by_hazard = sum((runs[k].by_hazard for k in seeds[1:]), runs[seeds[0]].by_hazard)
     return SumoRun(
         summaries,
         sum(runs[k].collisions for k in seeds),
@@ -405,6 +431,7 @@ def pool_runs(runs: dict[int, SumoRun]) -> SumoRun:
         {f"{k}:{v}": speed for k in seeds for v, speed in runs[k].crashes.items()},
         conflicts,
         aeb,
+        by_hazard,
     )
 
 

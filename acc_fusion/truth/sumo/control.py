@@ -98,6 +98,12 @@ class SumoControls:
         self.n_hazards += 1
         return True
 
+    def braking_leaders(self) -> np.ndarray:
+        """The integer ids (as in a frame's ``leader_id``) of the vehicles under an injected
+        emergency braking now."""
+        info = self._info
+        return np.array([info[v][0] for v in self._hazards if v in info], dtype=np.int64)
+
     def _schedule_hazard(self, vehicle_id: str, k: int) -> None:
         """Start the clock of ``vehicle_id``'s ``k``-th hazard now (module docstring)."""
         rng = np.random.default_rng([self._hazard_key, unit_key(vehicle_id), k])
