@@ -276,6 +276,8 @@ def test_bad_values_are_one_sentence_errors(monkeypatch, tmp_path, capsys):
         HighwaySource(HighwayConfig("highway-fast-v0", env_config={"no_such_key": 1}))
     assert main(["highway", "--render", str(tmp_path / "x.avi")]) == 2
     assert "'.gif', '.mp4'" in capsys.readouterr().err
+    assert main(["highway", "--world", "--distraction", "60"]) == 2
+    assert "no driver to distract" in capsys.readouterr().err
     monkeypatch.setitem(sys.modules, "imageio", None)
     from acc_fusion.studies.highway import check_replay_path
 
@@ -298,12 +300,33 @@ def test_bench_script_prints_the_ratio():
     assert re.fullmatch(r"overhead_ratio=\d+\.\d+", proc.stdout.strip().splitlines()[-1])
 
 
-def test_highway_env_refuses_distracted_drivers():
+def test_a_distracted_drivers_vehicle_keeps_its_speed_unless_he_brakes():
+    cfg = HighwayConfig("highway-v0", episodes=1, duration=2.0, vehicles_count=12)
+    with HighwaySource(cfg) as held, HighwaySource(cfg) as free:
+        n = held.n_pairs
+        brake, hold = np.zeros(n), np.ones(n, dtype=bool)
+        brake[0] = 3.0  # braking wins over holding
+        free_accel = 0.0
+        for _ in range(8):
+            frame = held.advance(brake, hold)
+            active = held.active[1:n]
+            assert frame.ego_accel[0] == pytest.approx(-3.0, abs=1e-9)
+            np.testing.assert_allclose(frame.ego_accel[1:n][active], 0.0, atol=1e-9)
+            free_accel = max(free_accel, np.abs(free.advance().ego_accel[1:n]).max())
+        assert free_accel > 0.1  # their IDMs, in the loop, do accelerate and brake
+
+
+def test_highway_env_runs_distracted_drivers_in_closed_loop():
     cfg = SimConfig(
         runs=1,
         drive="federated",
-        driver=DriverConfig(distraction=DistractionConfig(rate=60.0)),
+        driver=DriverConfig(distraction=DistractionConfig(rate=1800.0)),
     )
-    with HighwaySource(HighwayConfig("highway-fast-v0", episodes=1, duration=1.0)) as source:
-        with pytest.raises(ConfigError, match="cannot hold a distracted driver"):
-            simulate(replace(cfg, dt=source.dt), source=source)
+    held = []
+    with HighwaySource(HighwayConfig("highway-fast-v0", episodes=1, duration=3.0)) as source:
+        result = simulate(
+            replace(cfg, dt=source.dt),
+            source=source,
+            on_step=lambda view: held.append(int(view.driver.holding.sum())),
+        )
+    assert result.steps > 0 and max(held) > 0

@@ -156,6 +156,11 @@ def add_traffic_arguments(p: argparse.ArgumentParser) -> None:
         default=0.2,
         help="fraction of equipped drivers who react late (default 0.2)",
     )
+    add_distraction_argument(p)
+
+
+def add_distraction_argument(p: argparse.ArgumentParser) -> None:
+    """``--distraction RATE``: the drivers' eyes-off-road episodes of a traffic command."""
     p.add_argument(
         "--distraction",
         type=float,

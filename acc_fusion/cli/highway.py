@@ -11,6 +11,7 @@ from acc_fusion.cli.common import (
     osi_output,
     report_world,
     sim_config,
+    traffic_sim_config,
     write_study,
 )
 from acc_fusion.cli.world import parse_conditions
@@ -53,10 +54,14 @@ def run(args: argparse.Namespace) -> int:
     if (args.conditions or args.osi is not None) and not args.world:
         raise ConfigError("--conditions and --osi are settings of the 2-D pipeline; add --world")
     if args.world:
+        if args.distraction is not None:
+            raise ConfigError(
+                "--world runs open loop, with no driver to distract; drop --distraction"
+            )
         return run_world(args, cfg)
     render = check_replay_path(args.render) if args.render else None
     out = args.out
-    sim = sim_config(args, runs=1)
+    sim = traffic_sim_config(args)
     study = highway_study(cfg, sim, progress=True, render=render)
     table = study.table()
     print(table.format() + "\n\n" + study.classes().format())

@@ -208,10 +208,12 @@ def run_highway(
     *,
     progress: bool = False,
     replay: str | os.PathLike | None = None,
+    warnings_on: bool = True,
 ) -> HighwayRun:
     """Run the FCW pipeline of ``sim`` (its step replaced by the source's) on the episodes of
     ``config``; open loop when ``sim.drive`` is ``None``, else that method's alerts make the
-    egos' drivers brake.  ``replay``: also film the run (see :class:`Replay`, which draws the
+    egos' drivers brake (with ``warnings_on`` false the drivers act, distracted or not, but
+    hear no warning).  ``replay``: also film the run (see :class:`Replay`, which draws the
     driving method, else the last one)."""
     with HighwaySource(config, render=replay is not None, progress=progress) as source:
         film = None
@@ -219,7 +221,8 @@ def run_highway(
             film = Replay(source, sim.drive or sim.methods[-1], sim.warning, replay)
         log = CrashLog(source, lambda: [(source.episode, i) for i in range(source.n_pairs)])
         try:
-            result = simulate(replace(sim, dt=source.dt), source=source, on_step=chain(film, log))
+            result = simulate(replace(sim, dt=source.dt), source=source,
+                              on_step=chain(film, log), warnings_on=warnings_on)  # fmt: skip
         except BaseException:
             if film is not None:
                 film.discard()
@@ -291,9 +294,13 @@ def highway_study(
 ) -> HighwayStudy:
     """Run the episodes of ``config`` with FCW off (every method of ``sim`` watching, no
     driver warned) and on (the alerts of ``sim.drive``, default the last method, make the
-    drivers brake), one after the other on the same seeds.  ``render``: film the FCW-on run."""
+    drivers brake), one after the other on the same seeds.  With distracted drivers
+    (``sim.driver.distraction``) the FCW-off run is a closed loop too, its drivers deaf to
+    the warnings.  ``render``: film the FCW-on run."""
     drive = sim.drive or sim.methods[-1]
-    off = run_highway(config, replace(sim, drive=None), progress=progress)
+    distracted = sim.driver.distraction.rate > 0
+    off_sim = replace(sim, drive=drive if distracted else None)
+    off = run_highway(config, off_sim, progress=progress, warnings_on=False)
     closed = replace(sim, drive=drive, methods=(drive,))
     on = run_highway(config, closed, progress=progress, replay=render)
     return HighwayStudy(config, off, on)

@@ -6,6 +6,7 @@ import argparse
 
 from acc_fusion.cli.arguments import (
     add_config_arguments,
+    add_distraction_argument,
     add_osi_argument,
     output_folder,
     output_path,
@@ -26,7 +27,8 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         "stepped at the simulation frequency, with every vehicle (or only the controlled "
         "one) and its leader as a pair. Twice, on the same seeds: FCW off (every method "
         "watches, no driver is warned) and FCW on (the federated alerts make the drivers "
-        "brake after their reaction time). Prints false alarms per hour and per 100 km, miss "
+        "brake after their reaction time); the drivers look away from the road now and then "
+        "(--distraction). Prints false alarms per hour and per 100 km, miss "
         "rate, lead time and collisions, with 95% intervals. With --world, the 2-D object "
         "pipeline instead, open loop (FCW off): alerts by class and cause per method. "
         f"Needs highway-env ({INSTALL}).",
@@ -49,6 +51,7 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
     p.add_argument("--duration", type=positive_float, help="seconds per episode (default: env's)")
     p.add_argument("--vehicles", type=int, help="highway-env's vehicles_count (default: env's)")
     add_config_arguments(p)
+    add_distraction_argument(p)
     p.add_argument(
         "--render",
         metavar="PATH",

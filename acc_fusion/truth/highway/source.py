@@ -72,7 +72,11 @@ Closed loop
     of the controlled vehicle, the desired speed of the IDM ones) lowered to the speed the
     driver braked to: a driver who braked for a warning does not speed up into the same
     leader again (our assumption; highway-env's controlled vehicle would otherwise return to
-    its target speed and close in again, warning after warning).
+    its target speed and close in again, warning after warning).  A *held* slot (a distracted
+    driver, :attr:`acc_fusion.truth.driver.Driver.holding`) without a brake request gets a
+    longitudinal action of 0: it keeps its speed whatever is ahead, its IDM out of the loop
+    (as :mod:`acc_fusion.truth.sumo.control` holds a SUMO vehicle); its steering, lane changes
+    included, is its own, as SUMO's lane-changing model keeps a held vehicle's.
 
 Sources: highway-env 1.12 (``AbstractEnv._simulate``, ``Road.neighbour_vehicles``,
 ``Vehicle.step``, ``RoadObject.handle_collisions``, ``EnvViewer``), verified against the
@@ -130,6 +134,9 @@ class HighwaySource(SlotSource):
             while not src.done:
                 frame = src.advance(brake)
     """
+
+    #: It holds a distracted driver's vehicle (:meth:`advance`).
+    accepts_hold = True
 
     def __init__(
         self, config: HighwayConfig, *, render: bool = False, progress: bool = False
@@ -219,7 +226,9 @@ class HighwaySource(SlotSource):
         raise InputError("the vehicle is not on the current episode's road")
 
     # ---------------------------------------------------------------- stepping
-    def advance(self, ego_brake: np.ndarray | None = None) -> TruthFrame:
+    def advance(
+        self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None
+    ) -> TruthFrame:
         """Apply the brake requests, run one highway-env simulation step, return the frame.
 
         After an episode's end frame, the step starts the next episode instead (its first
@@ -229,6 +238,8 @@ class HighwaySource(SlotSource):
         Args:
             ego_brake: ``(N,)`` deceleration requested by each slot's driver [m/s², >= 0];
                 0 or NaN (or ``None`` for all): no request.
+            hold: ``(N,)`` slots whose driver is distracted (module docstring): without a
+                brake request their vehicle keeps its speed; ``None``: none.
 
         Raises:
             HighwayError: the run is over (use :meth:`restart`) or closed.
@@ -249,6 +260,8 @@ class HighwaySource(SlotSource):
             else:
                 self._finish()
             return self._frame
+        if hold is not None:
+            hold = check_array("hold", hold, (self.n_pairs,)).astype(bool)
         env, dt = self.env, self.dt
         braking = np.zeros(self.n_pairs, dtype=bool) if brake is None else brake > 0
         braking &= self._active
@@ -260,6 +273,9 @@ class HighwaySource(SlotSource):
         for slot in np.flatnonzero(braking):
             v = self._slot_vehicles[slot]
             v.action["acceleration"] = -min(float(brake[slot]), max(v.speed, 0.0) / dt)
+        if hold is not None:
+            for slot in np.flatnonzero(hold & self._active & ~braking):
+                self._slot_vehicles[slot].action["acceleration"] = 0.0
         env.road.step(dt)
         env.steps += 1
         self._ep_k += 1

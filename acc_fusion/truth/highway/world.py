@@ -148,8 +148,8 @@ class HighwayWorld(SlotWorld):
         ConfigError: not a HighwaySource, a closed one, or not an ObjectFieldConfig.
     """
 
-    #: It takes brake requests; it cannot hold a distracted driver's vehicle.
-    accepts_brakes, accepts_hold = True, False
+    #: It takes brake requests and holds a distracted driver's vehicle.
+    accepts_brakes, accepts_hold = True, True
 
     def __init__(self, source: HighwaySource, config: ObjectFieldConfig | None = None) -> None:
         config = DEFAULT_FIELD if config is None else config
@@ -167,10 +167,10 @@ class HighwayWorld(SlotWorld):
         self._next_id = 0  # ids of fixed objects used so far (ROADSIDE_ID_BASE + k)
         self._start(source.env.road)
 
-    def advance(self, ego_brake: np.ndarray | None = None) -> None:
-        """Run one highway-env step with the drivers' brake requests
+    def advance(self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None) -> None:
+        """Run one highway-env step with the drivers' brake requests and held vehicles
         (:meth:`HighwaySource.advance <acc_fusion.truth.highway.source.HighwaySource.advance>`)."""
-        self.source.advance(ego_brake)
+        self.source.advance(ego_brake, hold)
 
     def frame(self) -> ObjectFrame:
         """The object frame of the current step (made once per step; module docstring)."""
