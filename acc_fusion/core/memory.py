@@ -6,7 +6,7 @@ threshold each time such a block is freed, so later ones come from the main heap
 heap keeps its high-water mark: the resident memory of a run on SUMO's A10KW scenario rose
 by some 94 MB per simulated hour beyond what the traffic explains, while the memory Python
 and numpy hold (``tracemalloc``) stayed flat and ``malloc_trim(0)`` gave back about 150 MB
-every 150 simulated seconds (docs/benchmarks.md).  :func:`release_free_heap` calls
+every 150 simulated seconds (docs/theory/world-sumo.md).  :func:`release_free_heap` calls
 ``malloc_trim(0)`` (glibc's documented way to return free heap pages, ``man 3
 malloc_trim``); elsewhere (musl, macOS, Windows) it does nothing.
 """

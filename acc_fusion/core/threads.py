@@ -22,7 +22,7 @@ import numba
 #: run each: ``overhead_ratio`` 10.4 with threads that sleep at once
 #: (``OMP_WAIT_POLICY=PASSIVE``: each kernel waits for them to wake), 9.0 with 10 000 spins,
 #: 9.2 with 50 000, 11.6 with the default (SUMO's process starved, the pipeline waiting for
-#: its frames); then five runs at 10 000: median 10.3 (docs/benchmarks.md).
+#: its frames); then five runs at 10 000: median 10.3 (docs/theory/world-sumo.md).
 SPIN_COUNT = 10_000
 os.environ.setdefault("GOMP_SPINCOUNT", str(SPIN_COUNT))
 

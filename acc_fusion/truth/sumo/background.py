@@ -120,7 +120,7 @@ OBJECT_RING_SLOTS = 128
 #: waits for its slowest thread), at the lowest it runs in the pipeline's serial stretches.
 #: ``python scripts/bench_world.py``, 2026-11-27, one run each: ``overhead_ratio`` 12.0 at
 #: niceness 0, 11.6 at 19 with libgomp's default spin, 9.0 at 19 with
-#: :mod:`acc_fusion.core.threads`' (five runs: median 10.3, docs/benchmarks.md).
+#: :mod:`acc_fusion.core.threads`' (five runs: median 10.3, docs/theory/world-sumo.md).
 OBJECTS_NICE = 19
 #: Seconds the parent waits for the child to exit after ``close`` before it is terminated.
 CLOSE_TIMEOUT = 30.0
