@@ -13,7 +13,6 @@ import numpy as np
 from acc_fusion.metrics import hazards as hz
 from acc_fusion.metrics.counterfactual import HISTORY_S, ConflictRecord
 from acc_fusion.metrics.events import EventState
-from acc_fusion.metrics.hazards import CATEGORIES, HazardCounts, category
 from acc_fusion.sim.closed_loop import StepView
 
 
@@ -146,7 +145,7 @@ class HazardLog:
         self._braked_by = np.full(n, -1, dtype=np.int64)  # that leader's id
         self._leader = np.full(n, -1, dtype=np.int64)  # the slot's leader at the last step
         self._changed_at = np.full(n, -np.inf)  # when another vehicle last took that place
-        self._relevant = np.zeros(len(CATEGORIES), dtype=np.int64)
+        self._relevant = np.zeros(len(hz.CATEGORIES), dtype=np.int64)
         self._driven = self._eyes_off = 0
 
     def __call__(self, view: StepView) -> None:
@@ -179,23 +178,24 @@ class HazardLog:
         self._eyes_off += int((active & view.driver.eyes_off[:k]).sum())
 
     def _count(self, ended: np.ndarray) -> None:
-        self._relevant += np.bincount(category(self._met[ended]), minlength=len(CATEGORIES))
+        cats = hz.category(self._met[ended])
+        self._relevant += np.bincount(cats, minlength=len(hz.CATEGORIES))
 
     def of_slot(self, i: int) -> int:
         """The category of slot ``i``'s crash at this step: that of the situation it ends so
         far (every process met from its onset on), or of its own step without one."""
         flags = self._met[i] if self._situations.live[i] else self._now[i]
-        return int(category(flags))
+        return int(hz.category(flags))
 
-    def counts(self, causes: dict) -> HazardCounts:
-        """The :class:`HazardCounts` of the run (the situations still live count as they are),
-        with the crashes' ``causes`` (:attr:`CrashLog.causes`)."""
-        live = category(self._met[self._situations.live])
-        relevant = self._relevant + np.bincount(live, minlength=len(CATEGORIES))
+    def counts(self, causes: dict) -> hz.HazardCounts:
+        """The :class:`~acc_fusion.metrics.hazards.HazardCounts` of the run (the situations
+        still live count as they are), with the crashes' ``causes`` (:attr:`CrashLog.causes`)."""
+        live = hz.category(self._met[self._situations.live])
+        relevant = self._relevant + np.bincount(live, minlength=len(hz.CATEGORIES))
         crashes = np.bincount(np.fromiter(causes.values(), dtype=np.int64, count=len(causes)),
-                              minlength=len(CATEGORIES))  # fmt: skip
+                              minlength=len(hz.CATEGORIES))  # fmt: skip
         dt = self.source.dt
-        return HazardCounts(
+        return hz.HazardCounts(
             tuple(int(x) for x in relevant),
             tuple(int(x) for x in crashes),
             self._driven * dt,
