@@ -81,6 +81,7 @@ def test_sumo_command_writes_the_table_and_files(tmp_path, capsys):
     assert sum(r["relevant"] for (h, _), r in rows.items() if h == "lead_braking") > 0
     assert "re-weighted to naturalistic rates" in out and "nan" not in out
     assert (tmp_path / "sumo_onramp_seed0_hazards.csv").is_file()
+    assert (tmp_path / "sumo_onramp_seed0_hazards.png").stat().st_size > 10_000
 
 
 def test_the_oracle_ttc_agrees_with_sumos_ssm_device_when_no_driver_looks_away(capsys):

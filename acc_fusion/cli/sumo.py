@@ -119,6 +119,8 @@ def run(args: argparse.Namespace) -> int:
             write_csv_atomic(out / f"{stem}_{name}.csv", t.columns, t.rows)
         if world:
             save_figure_atomic(world_study.figure(), out / f"{stem}_causes.png")
+        if hazards is not None:
+            save_figure_atomic(study.hazard_figure(), out / f"{stem}_hazards.png")
         write_study(
             out,
             stem,

@@ -68,6 +68,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acc_fusion.core.plots import plt
 from acc_fusion.core.table import Table
 from acc_fusion.core.validation import check_range
 from acc_fusion.metrics.stats import Rate
@@ -257,3 +258,29 @@ def hazard_table(
             f"{_span(*(1 - on_total / total))} (the FCW-off run's weights)"
         )
     return t
+
+
+def hazard_figure(off: HazardCounts, km: float, hours: float, rates: NaturalisticRates):
+    """The crashes of :func:`hazard_table` as a figure: per category the simulated rate (bar)
+    and the re-weighted range (black ticks) in crashes per million km, on a log scale, beside
+    the field's rate (grey band); the crash count at each bar.  Returns the figure."""
+    w = off.weights(rates, km / hours if hours > 0 else 0.0)
+    crash = np.array(off.crashes, dtype=float)
+    simulated, reweighted = crash / km * 1e6, w * crash / km * 1e6
+    fig, ax = plt.subplots(figsize=(9, 4.8))
+    rows = np.arange(len(CATEGORIES))[::-1]
+    ax.barh(rows, simulated, color="tab:blue", alpha=0.6, label="as simulated")
+    ax.hlines(rows, reweighted[0], reweighted[1], color="black", lw=3)
+    ax.plot(reweighted.ravel(), np.tile(rows, 2), "k|", ms=14, mew=3, label="re-weighted")
+    ax.axvspan(*rates.field_rear_end_per_million_km, color="grey", alpha=0.5,
+               label="field: police-reported rear-end crashes")  # fmt: skip
+    for y, n, x in zip(rows, off.crashes, np.maximum(simulated, reweighted[1]), strict=True):
+        ax.annotate(f"{n}", (max(x, 0.1), y), xytext=(6, -4), textcoords="offset points")
+    ax.set_yticks(rows, [f"{p}, {d}" for p, d in CATEGORIES])
+    ax.set_xscale("log")
+    ax.set_xlim(0.1, max(1e3, 3 * float(np.max(reweighted, initial=0.0)), 3 * simulated.max()))
+    ax.set_xlabel("crashes per million km (FCW off)")
+    ax.set_title(f"Crashes by hazard: {int(crash.sum())} in {km:.0f} km")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=8)
+    fig.tight_layout()
+    return fig

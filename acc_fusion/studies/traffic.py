@@ -32,7 +32,12 @@ from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.benefit import Benefit, paired_benefit
 from acc_fusion.metrics.counterfactual import ConflictRecord, counterfactual_benefit
-from acc_fusion.metrics.hazards import HazardCounts, NaturalisticRates, hazard_table
+from acc_fusion.metrics.hazards import (
+    HazardCounts,
+    NaturalisticRates,
+    hazard_figure,
+    hazard_table,
+)
 from acc_fusion.metrics.summary import CAUSES, FALSE_CLASSES, FCWSummary, pool_summaries
 from acc_fusion.sim.closed_loop import SimConfig, StepView, simulate
 from acc_fusion.sim.osi_trace import OsiOutput
@@ -305,18 +310,30 @@ class SumoStudy:
         """The FCW-off run's crash-relevant situations and crashes by hazard, as simulated and
         re-weighted to the naturalistic ``rates`` (:mod:`acc_fusion.metrics.hazards`), with
         the FCW-on run's re-weighted reduction; ``None`` when the FCW-off run was open loop."""
-        off, on = self.off, self.on
-        if off.by_hazard is None or not off.summaries:
+        exposure = self._hazard_exposure()
+        if exposure is None:
             return None
-        summary = next(iter(off.summaries.values()))
         title = (
             f"Crash-relevant situations and crashes by hazard, {self.sumocfg.name}, FCW off: "
             "as simulated and re-weighted to naturalistic rates"
         )
-        return hazard_table(
-            title, off.by_hazard, summary.km, summary.hours, rates or NaturalisticRates(),
-            on.by_hazard, exposure_km(on.summaries),
-        )  # fmt: skip
+        return hazard_table(title, self.off.by_hazard, *exposure, rates or NaturalisticRates(),
+                            self.on.by_hazard, exposure_km(self.on.summaries))  # fmt: skip
+
+    def hazard_figure(self, rates: NaturalisticRates | None = None):
+        """:meth:`hazard_table`'s crashes as a figure
+        (:func:`~acc_fusion.metrics.hazards.hazard_figure`); ``None`` as the table."""
+        exposure = self._hazard_exposure()
+        if exposure is None:
+            return None
+        return hazard_figure(self.off.by_hazard, *exposure, rates or NaturalisticRates())
+
+    def _hazard_exposure(self) -> tuple[float, float] | None:
+        """The FCW-off run's km and hours, if it counted its hazards (else ``None``)."""
+        if self.off.by_hazard is None or not self.off.summaries:
+            return None
+        summary = next(iter(self.off.summaries.values()))
+        return summary.km, summary.hours
 
     @staticmethod
     def _drive(run: SumoRun) -> str:
