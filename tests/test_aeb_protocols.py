@@ -53,7 +53,8 @@ def test_euroncap_takes_no_trials(capsys):
 
 def test_sumo_aeb_adds_the_fcw_plus_aeb_run(tmp_path, capsys):
     pytest.importorskip("libsumo")
-    args = ["sumo", "--net", "motorway", "--end", "100", "--aeb", "--out", str(tmp_path)]
+    args = ["sumo", "--net", "motorway", "--end", "40", "--warmup", "60", "--aeb"]
+    args += ["--out", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "federated + AEB" in out

@@ -18,6 +18,9 @@ from urllib.parse import unquote, urlsplit
 
 import pytest
 
+# One worker builds the site once (the fixtures are per module, so per worker).
+pytestmark = pytest.mark.xdist_group("docs")
+
 ROOT = Path(__file__).resolve().parents[1]
 # The path of the site's root on its server, from mkdocs.yml's site_url.
 _BASE = urlsplit(

@@ -404,7 +404,8 @@ def test_a_lane_change_gives_lateral_speed_for_the_lane_change_duration():
 
 
 def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_path, capsys):
-    args = ["sumo", "--open-loop", "--net", "motorway", "--end", "45", "--conditions", "day",
+    args = ["sumo", "--open-loop", "--net", "motorway", "--end", "45", "--warmup", "60",
+            "--conditions", "day",
             "night+fog=60", "--out", str(tmp_path)]  # fmt: skip
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -426,7 +427,7 @@ def test_conditions_need_the_world():
 
 
 def test_sumo_world_closed_loop_prints_the_study_with_the_causes(tmp_path, capsys):
-    args = ["sumo", "--net", "motorway", "--end", "40",
+    args = ["sumo", "--net", "motorway", "--end", "40", "--warmup", "60",
             "--conditions", "fog=60", "--out", str(tmp_path)]  # fmt: skip
     assert main(args) == 0
     out = capsys.readouterr().out
