@@ -355,6 +355,34 @@ def test_the_association_is_sticky_and_a_new_pairing_is_a_new_object():
     assert not meas[0].valid.any() and not meas[1].valid.any()  # no detection this frame
 
 
+def test_with_keep_identity_an_object_goes_on_as_a_track_joins_or_leaves():
+    """``keep_identity``: an object whose one successor a track joined or left keeps its id
+    (its estimator goes on); a track replaced by another does not carry the id across, and
+    an object that splits in two passes it to neither."""
+    assoc = TrackAssociator(AssociationConfig(keep_identity=True), 1, (4, 4))
+
+    def step(radar, camera):
+        r, c = _tracks("radar", radar), _tracks("infrared", camera)
+        return _objects(assoc.step(r, c), r, c)
+
+    radar = [(0, 10, 40.0, 0.0, 0.3)]
+    assert step(radar, []) == {0: (10, -1)}
+    assert step(radar, [(1, 20, 40.6, 0.0, 0.3)]) == {0: (10, 20)}  # 20 joins: still 0
+    both = [(1, 20, 40.9, 0.0, 0.3), (2, 21, 40.0, 0.1, 0.3)]
+    assert step(radar, both) == {0: (10, 20), 1: (-1, 21)}
+    # 20 leaves the gate and 21 pairs with 10: object 0 had two successors, (10, 21) and
+    # (-1, 20), and passes its id to neither; 1 is joined by the radar's track
+    moved = [(1, 20, 41.5, 0.0, 0.3), (2, 21, 40.0, 0.1, 0.3)]
+    assert step(radar, moved) == {1: (10, 21), 2: (-1, 20)}
+    apart = [(1, 20, 41.5, 0.0, 0.3), (2, 21, 42.0, 0.1, 0.3)]
+    assert step(radar, apart) == {3: (10, -1), 2: (-1, 20), 4: (-1, 21)}  # 1 split in two
+    assert step(radar, [(3, 22, 40.2, 0.0, 0.3)]) == {3: (10, 22)}  # 22 joins 10's object
+    # a camera track replaced by another under the same radar track: a new object
+    assert step(radar, [(3, 23, 40.2, 0.0, 0.3)]) == {5: (10, 23)}
+    # the camera loses the car: the radar's track goes on as the same object
+    assert step(radar, []) == {5: (10, -1)}
+
+
 def _no_detections(sensor):
     empty, none = np.zeros(0), np.zeros(0, np.int64)
     return Detections(0.0, sensor, 1, True, none, *(empty,) * 6, none, none.astype(np.int8))

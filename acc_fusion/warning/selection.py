@@ -48,9 +48,12 @@ Stationary objects (``stationary``)
     ``"all"``: stationary objects are selectable like any other; ``"ignore"``: never (the
     policy of early radar-only ACC/FCW, which therefore misses a stopped car); ``"confirmed"``
     (default): selectable only when a classifying sensor (the thermal camera's vehicle
-    detector) confirms the object, or when the object was seen moving since it was first
+    detector) has confirmed the object, or the object was seen moving, since it was first
     tracked — the radar alone then ignores gantries, bridges and parked cars, and with them a
-    car revealed standing still.
+    car revealed standing still.  The memory is the fused object's: it lasts as long as the
+    object's id, which by default changes with the tracks behind it (so a stopped car that
+    the camera loses at close range is dropped), and with
+    ``world.association.keep_identity`` outlives the camera's track.
 
 Oncoming objects (``oncoming``)
     A track whose estimated ground speed is below :math:`-`\ ``stationary_speed`` comes
@@ -207,22 +210,21 @@ def path_curvature(
 class InPathSelector(PairState):
     """Selects the in-path object of E egos among F object slots each, step by step.
 
-    It remembers, per slot, whether the object in it has been seen moving (a slot's memory
-    starts afresh when its object id changes), and per ego the object it selected last.
-    After each :meth:`step` it holds that step's path and corridor for observers (the world
-    environment's observation): ``curvature (E,)`` of the predicted path at the ego [1/m]
-    (:math:`c_0`), ``curvature_rate (E,)`` [1/m²] (:math:`c_1`, 0 but for the ``"fused"``
+    It remembers, per slot, whether the object in it has been seen moving or confirmed by a
+    classifying sensor (a slot's memory starts afresh when its object id changes), and per ego the
+    object it selected last.  After each :meth:`step` it holds that step's path and corridor for
+    observers (the world environment's observation): ``curvature (E,)`` of the predicted path at the
+    ego [1/m] (:math:`c_0`), ``curvature_rate (E,)`` [1/m²] (:math:`c_1`, 0 but for the ``"fused"``
     path), ``offset (E, F)`` each object's lateral offset from it, :math:`y - y_p(x)` [m],
-    ``probability (E, F)`` its in-path probability (0 for an empty slot and for an object
-    that the stationary and oncoming rules or a place behind the ego exclude),
-    ``in_path (E, F)`` the objects it could
-    select and ``selected (E,)`` the slot it returned.
+    ``probability (E, F)`` its in-path probability (0 for an empty slot and for an object that the
+    stationary and oncoming rules or a place behind the ego exclude), ``in_path (E, F)`` the objects
+    it could select and ``selected (E,)`` the slot it returned.
 
     ``yaw_rate_std`` [rad/s] is the noise of the yaw rate it is given (the ``"fused"`` path
     weighs the gyro by it).
     """
 
-    _PAIR_AXES = {"_ids": 0, "_moved": 0, "_last": 0, "_theta": 0, "_cov": 0}
+    _PAIR_AXES = {"_ids": 0, "_vouched": 0, "_last": 0, "_theta": 0, "_cov": 0}
 
     def __init__(
         self, config: SelectionConfig, n_egos: int, n_slots: int, yaw_rate_std: float = 0.0
@@ -232,7 +234,7 @@ class InPathSelector(PairState):
         self._prm = config.path_parameters()
         self._gyro_var = float(yaw_rate_std) ** 2
         self._ids = np.full((n_egos, n_slots), -1, dtype=np.int64)
-        self._moved = np.zeros((n_egos, n_slots), dtype=bool)
+        self._vouched = np.zeros((n_egos, n_slots), dtype=bool)
         self._last = np.full(n_egos, -1, dtype=np.int64)
         self._theta = np.zeros((n_egos, 3))
         self._cov = np.tile(config.initial_road_cov(), (n_egos, 1, 1))
@@ -247,7 +249,7 @@ class InPathSelector(PairState):
         """Forget what was seen of the objects of ``egos`` (a boolean mask ``(E,)``), e.g. a
         slot that a new vehicle took."""
         self._ids[egos] = -1
-        self._moved[egos] = False
+        self._vouched[egos] = False
         self._last[egos] = -1
         self._theta[egos] = 0.0
         self._cov[egos] = self.config.initial_road_cov()
@@ -314,7 +316,7 @@ class InPathSelector(PairState):
             road_x, road_vx, self._fused, float(dt), self._gyro_var, self._prm, self._theta,
             self._cov, cfg.half_width, cfg.enter_probability, cfg.keep_probability,
             cfg.stationary_speed, cfg.oncoming,
-            STATIONARY_POLICIES.index(cfg.stationary), self._ids, self._moved, self._last,
+            STATIONARY_POLICIES.index(cfg.stationary), self._ids, self._vouched, self._last,
             self.curvature, self.curvature_rate, self.offset, self.probability, self.in_path,
             self.selected,
         )  # fmt: skip
@@ -325,10 +327,10 @@ class InPathSelector(PairState):
 def _select(
     object_id, x, y, ground, confirmed, vy, y_var, vy_var, speed, yaw, road, road_ids, road_x,
     road_vx, fused, dt, gyro_var, prm, road_theta, road_cov, half_width, enter, keep, still,
-    oncoming, policy, ids, moved, last, kappa, rate, offset, prob, in_path, selected,
+    oncoming, policy, ids, vouched, last, kappa, rate, offset, prob, in_path, selected,
 ):  # pragma: no cover - compiled  # fmt: skip
     r""":meth:`InPathSelector.step` of every ego, one pass over its slots: the memory ``ids``,
-    ``moved`` and ``last`` in place; with ``fused``, each ego's road filter ``road_theta``,
+    ``vouched`` and ``last`` in place; with ``fused``, each ego's road filter ``road_theta``,
     ``road_cov`` one step on (:func:`~acc_fusion.warning.path.road_step`, reading the objects
     ``road_ids``, ``road_x``, ``road_vx``), its curvature and rate into ``kappa`` and
     ``rate`` (else ``kappa`` is given, the offset certain);
@@ -342,11 +344,11 @@ def _select(
     for e in range(n):
         for k in range(f):
             oid = object_id[e, k]
-            if oid != ids[e, k]:  # a new object in the slot: not yet seen moving
-                moved[e, k] = False
+            if oid != ids[e, k]:  # a new object in the slot: not yet seen moving or confirmed
+                vouched[e, k] = False
             ids[e, k] = oid
             stationary = abs(ground[e, k]) < still
-            moved[e, k] = moved[e, k] or (oid >= 0 and not stationary)
+            vouched[e, k] = vouched[e, k] or (oid >= 0 and (not stationary or confirmed[e, k]))
             # the target selected last does not vouch for its own path (its cut-out must
             # not bend the path away from what it reveals)
             rid, rx, rg = road_ids[e, k], road_x[e, k], speed[e] + road_vx[e, k]
@@ -373,7 +375,7 @@ def _select(
             if policy == _IGNORE:
                 ok = ok and not stationary
             elif policy == _CONFIRMED:
-                ok = ok and (not stationary or confirmed[e, k] or moved[e, k])
+                ok = ok and (not stationary or vouched[e, k])
             # the probability only of an object the other rules let through (the erf pair
             # is the loop's cost)
             p = fp.in_path_probability(off, var, half_width) if ok else 0.0

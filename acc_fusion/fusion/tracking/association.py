@@ -26,10 +26,15 @@ Fused objects
     :math:`F = T_a + T_b` slots per ego (never too few).  An object keeps its slot and its id as
     long as its pairing — the two track ids, or one id and none — is unchanged; a new pairing
     (a track joins, leaves or is replaced) is a new object with a new id (never reused) in a
-    free slot.  Its lateral position and velocity :math:`[y, v_y]` are the information-weighted
-    mean of its tracks', :math:`P = (P_a^{-1} + P_b^{-1})^{-1}`, :math:`\hat{\mathbf x} = P
-    (P_a^{-1}\hat{\mathbf x}_a + P_b^{-1}\hat{\mathbf x}_b)` (independent errors assumed, as
-    above), or the single track's.
+    free slot.  With ``keep_identity``, a new pairing that is the one successor of an object of
+    the last frame that no pairing kept — the only new pairing with one of its tracks, the
+    other sensor's track having joined or left it, not replaced by another — takes over that
+    object's slot and id (by the radar's track first, then the camera's): the object goes on
+    while one sensor's track leaves it or another joins, and an object that splits in two
+    passes its id to neither.  Its lateral position and velocity :math:`[y, v_y]` are the
+    information-weighted mean of its tracks', :math:`P = (P_a^{-1} + P_b^{-1})^{-1}`,
+    :math:`\hat{\mathbf x} = P (P_a^{-1}\hat{\mathbf x}_a + P_b^{-1}\hat{\mathbf x}_b)`
+    (independent errors assumed, as above), or the single track's.
 
 Bridge to the 1-D federated filter
     :func:`fused_measurements` turns the N = E·F fused slots into the pairs of an
@@ -62,7 +67,8 @@ from acc_fusion.core.units import TIME_TOL
 from acc_fusion.filters.kalman import _inverse
 from acc_fusion.fusion.tracking import tracker
 from acc_fusion.fusion.tracking.assignment import gnn, scratch_arrays
-from acc_fusion.fusion.tracking.kernels import UNNUMBERED, converted, number_new, std_at
+from acc_fusion.fusion.tracking.identity import place_objects
+from acc_fusion.fusion.tracking.kernels import converted, number_new, std_at
 from acc_fusion.fusion.tracking.tracker import GateConfig, Tracks
 from acc_fusion.sensors.detections import CLUTTER, GHOST, Detections
 from acc_fusion.sensors.sensor import Measurement
@@ -71,9 +77,21 @@ from acc_fusion.sensors.sensor import Measurement
 @dataclass(frozen=True)
 class AssociationConfig(GateConfig):
     """Settings of the :class:`TrackAssociator`: the gate of two tracks of one object
-    (:class:`~acc_fusion.fusion.tracking.tracker.GateConfig`, default :math:`P_G = 0.99`)."""
+    (:class:`~acc_fusion.fusion.tracking.tracker.GateConfig`, default :math:`P_G = 0.99`).
+
+    Attributes:
+        keep_identity: a fused object keeps its id when one of its tracks joins, leaves or is
+            replaced while the other stays (module docstring), so its estimator goes on
+            instead of restarting; the system track of a multisensor tracker keeps its number
+            as the sensor tracks behind it change (Blackman & Popoli, *Design and Analysis of
+            Modern Tracking Systems*, Artech House 1999, on multiple-sensor tracking).
+            Default False: every pairing is its own object (see docs/theory/tracking.md for
+            what it changes).
+    """
 
     _NAME: ClassVar[str] = "association"
+
+    keep_identity: bool = False
 
 
 @dataclass(frozen=True)
@@ -156,8 +174,8 @@ class TrackAssociator(PairState):
         lateral_cov = np.zeros((self.n_egos, self.n_slots, 2, 2))
         args = (
             a.confirmed, a.track_id, a.state, a.cov, b.confirmed, b.track_id, b.state, b.cov,
-            self.config.gate_value, self._valid, self._object_id, self._pair, self._next_id,
-            track, lateral, lateral_cov,
+            self.config.gate_value, self.config.keep_identity, self._valid, self._object_id,
+            self._pair, self._next_id, track, lateral, lateral_cov,
         )  # fmt: skip
         chunks = blocks(self.n_egos, tracker.PARALLEL_EGOS)
         _associate_parallel(*args, chunks) if chunks else _associate(*args)
@@ -169,36 +187,37 @@ class TrackAssociator(PairState):
 
 @njit(cache=True)
 def _associate(
-    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, next_id,
-    track, lateral, lateral_cov,
+    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, keep_identity, valid, object_id,
+    pair, next_id, track, lateral, lateral_cov,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:meth:`TrackAssociator.step` of every ego, in place on the objects' ``valid``,
     ``object_id`` and ``pair`` (their two track ids); writes ``track``, ``lateral`` and
     ``lateral_cov``."""
     _associate_egos(0, valid.shape[0], conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate,
-                    valid, object_id, pair, track, lateral, lateral_cov)  # fmt: skip
+                    keep_identity, valid, object_id, pair, track, lateral,
+                    lateral_cov)  # fmt: skip
     number_new(object_id, next_id)
 
 
 @njit(cache=True, parallel=True)
 def _associate_parallel(
-    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, next_id,
-    track, lateral, lateral_cov, chunks,
+    conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, keep_identity, valid, object_id,
+    pair, next_id, track, lateral, lateral_cov, chunks,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`_associate` on the cores, the egos in ``chunks`` blocks (the egos are
     independent; new objects are numbered after, as the serial kernel would)."""
     n = valid.shape[0]
     for c in prange(chunks):
         _associate_egos(c * n // chunks, (c + 1) * n // chunks, conf_a, id_a, x_a, p_a, conf_b,
-                        id_b, x_b, p_b, gate, valid, object_id, pair, track, lateral,
-                        lateral_cov)  # fmt: skip
+                        id_b, x_b, p_b, gate, keep_identity, valid, object_id, pair, track,
+                        lateral, lateral_cov)  # fmt: skip
     number_new(object_id, next_id)
 
 
 @njit(cache=True)
 def _associate_egos(
-    lo, hi, conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, valid, object_id, pair, track,
-    lateral, lateral_cov,
+    lo, hi, conf_a, id_a, x_a, p_a, conf_b, id_b, x_b, p_b, gate, keep_identity, valid,
+    object_id, pair, track, lateral, lateral_cov,
 ):  # pragma: no cover - compiled  # fmt: skip
     """The association of egos ``lo`` to ``hi``, with work arrays of its own; new objects are
     left :data:`~acc_fusion.fusion.tracking.kernels.UNNUMBERED`."""
@@ -215,7 +234,7 @@ def _associate_egos(
     d2, free_d2, vec, s, si, work = borrow(floats)
     ints = (np.empty(n_a, np.int64), np.empty(n_b, np.int64), np.empty(n_a, np.int64),
             np.empty(n_b, np.int64), np.empty(n_a, np.int64), np.empty(n_b, np.int64),
-            np.empty(n_a, np.int64), np.empty((n_a + n_b, 2), np.int64))  # fmt: skip
+            np.empty(n_a, np.int64), np.empty((n_a + n_b, 3), np.int64))  # fmt: skip
     free_a, free_b, all_a, all_b, mate_a, mate_b, out, pending = borrow(ints)
     keep_owner = np.empty(valid.shape[1], np.bool_)
     keep = borrow(keep_owner)
@@ -246,8 +265,8 @@ def _associate_egos(
         for r in range(n_r):
             if out[r] >= 0:
                 mate_a[free_a[r]], mate_b[free_b[out[r]]] = free_b[out[r]], free_a[r]
-        _place(valid[e], object_id[e], pair[e], track[e], conf_a[e], id_a[e], mate_a,
-               conf_b[e], id_b[e], mate_b, keep, pending)  # fmt: skip
+        place_objects(valid[e], object_id[e], pair[e], track[e], conf_a[e], id_a[e], mate_a,
+               conf_b[e], id_b[e], mate_b, keep, pending, keep_identity)  # fmt: skip
         for f in range(valid.shape[1]):
             if valid[e, f]:
                 _fuse_lateral(track[e, f], x_a[e], p_a[e], x_b[e], p_b[e], lateral[e, f],
@@ -288,50 +307,6 @@ def _unpaired(confirmed, mate, free):  # pragma: no cover - compiled
             free[n] = i
             n += 1
     return n
-
-
-@njit(cache=True, inline="always")
-def _place(
-    valid, object_id, pair, track, conf_a, id_a, mate_a, conf_b, id_b, mate_b, keep, pending,
-):  # pragma: no cover - compiled  # fmt: skip
-    """One ego's objects after the association, in place: a pairing that existed keeps its
-    slot and id, the others go to free slots with new ids (module docstring; ``keep (F,)``,
-    ``pending (T_a + T_b, 2)``: scratch)."""
-    n_a, n_b, n_f = mate_a.size, mate_b.size, valid.size
-    keep[:] = False
-    n_p = 0
-    for i in range(n_a + n_b):
-        if i < n_a:
-            if not conf_a[i]:
-                continue
-            ia, ib = i, mate_a[i]
-        else:
-            if not conf_b[i - n_a] or mate_b[i - n_a] >= 0:
-                continue
-            ia, ib = -1, i - n_a
-        key_a = id_a[ia] if ia >= 0 else -1
-        key_b = id_b[ib] if ib >= 0 else -1
-        found = False
-        for f in range(n_f):
-            if valid[f] and not keep[f] and pair[f, 0] == key_a and pair[f, 1] == key_b:
-                keep[f], found = True, True
-                track[f, 0], track[f, 1] = ia, ib
-                break
-        if not found:
-            pending[n_p, 0], pending[n_p, 1] = ia, ib
-            n_p += 1
-    for f in range(n_f):
-        if not keep[f]:
-            valid[f], object_id[f], pair[f, 0], pair[f, 1] = False, -1, -1, -1
-    f = 0
-    for k in range(n_p):
-        while valid[f]:
-            f += 1
-        ia, ib = pending[k, 0], pending[k, 1]
-        valid[f], object_id[f] = True, UNNUMBERED
-        pair[f, 0] = id_a[ia] if ia >= 0 else -1
-        pair[f, 1] = id_b[ib] if ib >= 0 else -1
-        track[f, 0], track[f, 1] = ia, ib
 
 
 @njit(cache=True, inline="always")
