@@ -80,11 +80,12 @@ class AssociationConfig(GateConfig):
     (:class:`~acc_fusion.fusion.tracking.tracker.GateConfig`, default :math:`P_G = 0.99`).
 
     Attributes:
-        keep_identity: a fused object keeps its id when one of its tracks joins, leaves or is
-            replaced while the other stays (module docstring), so its estimator goes on
-            instead of restarting; the system track of a multisensor tracker keeps its number
-            as the sensor tracks behind it change (Blackman & Popoli, *Design and Analysis of
-            Modern Tracking Systems*, Artech House 1999, on multiple-sensor tracking).
+        keep_identity: a fused object keeps its id when a track joins it or leaves it, not
+            when one track replaces another nor when it splits in two (module docstring), so
+            its estimator goes on instead of restarting; the system track of a multisensor
+            tracker keeps its number as the sensor tracks behind it change (Blackman &
+            Popoli, *Design and Analysis of Modern Tracking Systems*, Artech House 1999, on
+            multiple-sensor tracking).
             Default False: every pairing is its own object (see docs/theory/tracking.md for
             what it changes).
     """
@@ -266,7 +267,7 @@ def _associate_egos(
             if out[r] >= 0:
                 mate_a[free_a[r]], mate_b[free_b[out[r]]] = free_b[out[r]], free_a[r]
         place_objects(valid[e], object_id[e], pair[e], track[e], conf_a[e], id_a[e], mate_a,
-               conf_b[e], id_b[e], mate_b, keep, pending, keep_identity)  # fmt: skip
+                      conf_b[e], id_b[e], mate_b, keep, pending, keep_identity)  # fmt: skip
         for f in range(valid.shape[1]):
             if valid[e, f]:
                 _fuse_lateral(track[e, f], x_a[e], p_a[e], x_b[e], p_b[e], lateral[e, f],

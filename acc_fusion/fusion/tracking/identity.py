@@ -30,8 +30,7 @@ def place_objects(
             if not conf_b[i - n_a] or mate_b[i - n_a] >= 0:
                 continue
             ia, ib = -1, i - n_a
-        key_a = id_a[ia] if ia >= 0 else -1
-        key_b = id_b[ib] if ib >= 0 else -1
+        key_a, key_b = track_keys(ia, ib, id_a, id_b)
         found = False
         for f in range(n_f):
             if valid[f] and not keep[f] and pair[f, 0] == key_a and pair[f, 1] == key_b:
@@ -52,8 +51,7 @@ def place_objects(
             f += 1
         ia, ib = pending[k, 0], pending[k, 1]
         valid[f], object_id[f] = True, UNNUMBERED
-        pair[f, 0] = id_a[ia] if ia >= 0 else -1
-        pair[f, 1] = id_b[ib] if ib >= 0 else -1
+        pair[f, 0], pair[f, 1] = track_keys(ia, ib, id_a, id_b)
         track[f, 0], track[f, 1] = ia, ib
 
 
@@ -66,7 +64,7 @@ def inherit(valid, pair, track, id_a, id_b, keep, pending, n_p):  # pragma: no c
     splits in two passes its id to neither.  Return how many pairings stay pending,
     compacted at its start."""
     for k in range(n_p):  # each pairing's candidate: the object it continues, or -1
-        key_a, key_b = track_keys(pending[k], id_a, id_b)
+        key_a, key_b = track_keys(pending[k, 0], pending[k, 1], id_a, id_b)
         pending[k, 2] = -1
         for side in range(2):
             key, other = (key_a, key_b) if side == 0 else (key_b, key_a)
@@ -84,7 +82,7 @@ def inherit(valid, pair, track, id_a, id_b, keep, pending, n_p):  # pragma: no c
         f = pending[k, 2]
         for j in range(n_p):  # another new pairing with one of the object's tracks: a split
             if f >= 0 and j != k:
-                key_a, key_b = track_keys(pending[j], id_a, id_b)
+                key_a, key_b = track_keys(pending[j, 0], pending[j, 1], id_a, id_b)
                 if (key_a >= 0 and pair[f, 0] == key_a) or (key_b >= 0 and pair[f, 1] == key_b):
                     f = -1
         if f < 0 or keep[f]:
@@ -92,12 +90,12 @@ def inherit(valid, pair, track, id_a, id_b, keep, pending, n_p):  # pragma: no c
             n_left += 1
             continue
         keep[f] = True
-        pair[f, 0], pair[f, 1] = track_keys(pending[k], id_a, id_b)
+        pair[f, 0], pair[f, 1] = track_keys(pending[k, 0], pending[k, 1], id_a, id_b)
         track[f, 0], track[f, 1] = pending[k, 0], pending[k, 1]
     return n_left
 
 
 @njit(cache=True, inline="always")
-def track_keys(row, id_a, id_b):  # pragma: no cover - compiled
-    """The track ids ``(a, b)`` of a pending pairing ``row`` of track slots (-1: none)."""
-    return (id_a[row[0]] if row[0] >= 0 else -1), (id_b[row[1]] if row[1] >= 0 else -1)
+def track_keys(ia, ib, id_a, id_b):  # pragma: no cover - compiled
+    """The track ids ``(a, b)`` of the pairing of track slots ``ia`` and ``ib`` (-1: none)."""
+    return (id_a[ia] if ia >= 0 else -1), (id_b[ib] if ib >= 0 else -1)
