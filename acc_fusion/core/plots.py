@@ -2,15 +2,26 @@
 
 from __future__ import annotations
 
-import matplotlib
+from functools import cache
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+
+
+@cache
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (no display needed), imported on the first
+    figure: the import takes half a second that a run without figures need not pay."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def estimation_bars(table):
     """Bar chart of gap and range-rate RMSE per method, from :func:`studies.compare_methods`."""
+    plt = pyplot()
     labels = [r["method"] for r in table.rows]
     y = np.arange(len(labels))
     fig, axes = plt.subplots(1, 3, figsize=(13, 0.45 * len(labels) + 1.5), sharey=True)
@@ -54,6 +65,7 @@ def _column(rows, key):
 def run_figure(trace, config):
     """One run: gap (truth, sensors, local and fused estimates, safety distance), range-rate,
     and the warning levels of the driving method and of the oracle."""
+    plt = pyplot()
     rows = trace.rows
     t = _column(rows, "t")
     fig, (ax_g, ax_r, ax_w) = plt.subplots(
@@ -158,6 +170,7 @@ def run_figure(trace, config):
 
 def rates_figure(summaries, title: str):
     """False alarms per hour and miss rate of every method, with their 95 % intervals."""
+    plt = pyplot()
     names = list(summaries)
     x = np.arange(len(names))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -192,6 +205,7 @@ def warning_frame(history, title: str = "") -> np.ndarray:
 
     ``history`` holds ``(t, fused gap, imminent distance, warning level)`` tuples.
     """
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.2), dpi=80)
     if history:
         t, gap, d, level = (np.array(c, dtype=float) for c in zip(*history, strict=True))
@@ -226,6 +240,7 @@ def warning_frame(history, title: str = "") -> np.ndarray:
 def tradeoff_figure(margin, rate, lo, hi, front, labels, title: str, target: float = 1.0):
     """Conformance margin [s] against a rate per 100 km (with its interval), one point per
     setting, the Pareto front joined; the pass line (margin 0) and the ``target`` rate drawn."""
+    plt = pyplot()
     margin, rate = np.asarray(margin, dtype=float), np.asarray(rate, dtype=float)
     err = np.array([rate - np.asarray(lo), np.asarray(hi) - rate])
     front = np.asarray(front, dtype=bool)

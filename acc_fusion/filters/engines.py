@@ -20,7 +20,6 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.motion import STATE_DIM
@@ -164,7 +163,10 @@ class FilterpyBank(FilterBank):
         self._resized(m)
 
     @staticmethod
-    def _new(dim: int) -> KalmanFilter:
+    def _new(dim: int):
+        # Imported here: filterpy imports scipy.stats (0.8 s), which the batched engine needs not.
+        from filterpy.kalman import KalmanFilter
+
         kf = KalmanFilter(dim_x=dim, dim_z=1)
         kf.x = np.zeros(dim)
         return kf

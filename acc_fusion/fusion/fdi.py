@@ -134,8 +134,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.stats import binom, chi2
 
+from acc_fusion.core.distributions import binom_isf, chi2_ppf
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.units import TIME_TOL
@@ -257,9 +257,9 @@ class WindowedChiSquare(PairState):
         self.dt = float(dt)
         self.accel_var = float(accel_std) ** 2  # of a report carried forward (cross NIS)
         w = int(config.window)
-        self.gate = float(chi2.ppf(config.gate_prob, dof))
-        self.clip = float(chi2.ppf(config.clip_prob, dof))
-        self.threshold = float(chi2.ppf(1.0 - config.alpha, dof * w))
+        self.gate = float(chi2_ppf(config.gate_prob, dof))
+        self.clip = float(chi2_ppf(config.clip_prob, dof))
+        self.threshold = float(chi2_ppf(1.0 - config.alpha, dof * w))
         self._buf = np.zeros((n_pairs, n_sensors, w))
         self._sum = np.zeros((n_pairs, n_sensors))
         self._count = np.zeros((n_pairs, n_sensors), dtype=np.int64)
@@ -268,9 +268,9 @@ class WindowedChiSquare(PairState):
         self._verdict = np.zeros((n_pairs, n_sensors), dtype=np.int8)
         self._suspect = np.zeros((n_pairs, n_sensors), dtype=bool)
         k = config.stuck_pairs
-        self.still = float(chi2.ppf(config.stuck_alpha, dof * k))
+        self.still = float(chi2_ppf(config.stuck_alpha, dof * k))
         # Noise burst: c of the K terms beyond their 99 % point, P(Bin(K, 0.01) >= c) <= alpha.
-        self.noisy = float(binom.isf(config.noise_alpha, k, 1.0 - NOISE_TERM_PROB) + 1)
+        self.noisy = float(binom_isf(config.noise_alpha, k, 1.0 - NOISE_TERM_PROB) + 1)
         self._last = np.zeros((n_pairs, n_sensors, LAST_SIZE + k))
         self._last[..., SCALE] = 1.0
         self.frozen = np.zeros((n_pairs, n_sensors), dtype=bool)

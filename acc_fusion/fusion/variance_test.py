@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from scipy.stats import chi2
+
+from acc_fusion.core.distributions import chi2_ppf
 
 
 @njit(cache=True, inline="always")
@@ -26,8 +27,8 @@ BIAS_RANGE, BIAS_RATE, BIAS_COUNT, BIAS_VAR = 9, 10, 11, 12
 LAST_SIZE = 13
 #: A noise term beyond its ``NOISE_TERM_PROB`` point counts towards a noise burst.
 NOISE_TERM_PROB = 0.99
-_TERM_LIMIT = float(chi2.ppf(NOISE_TERM_PROB, 1))
-_TERM_MEDIAN = float(chi2.ppf(0.5, 1))
+_TERM_LIMIT = float(chi2_ppf(NOISE_TERM_PROB, 1))
+_TERM_MEDIAN = float(chi2_ppf(0.5, 1))
 
 
 @njit(cache=True, inline="always")

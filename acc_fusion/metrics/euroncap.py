@@ -72,12 +72,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.patches import Rectangle
 
 from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.outputs import save_figure_atomic
-from acc_fusion.core.plots import plt
+from acc_fusion.core.plots import pyplot
 from acc_fusion.core.table import Table
 from acc_fusion.core.units import KMH
 from acc_fusion.core.validation import check_choice, check_range
@@ -334,6 +333,9 @@ def plot_grid(points: Sequence[CCRPoint], impact_speeds: object, path: str | Pat
     """A PNG at ``path`` (written atomically): one panel per scenario, a cell per test speed
     and overlap (CCRb: headway and target deceleration) coloured by its band, the impact speed
     [km/h] written in it; grid points not given are blank.  Returns the path."""
+    from matplotlib.patches import Rectangle
+
+    plt = pyplot()
     speeds = _check(points, impact_speeds)
     given = {p: float(v) for p, v in zip(points, speeds, strict=True)}
     result = score(points, speeds)

@@ -68,7 +68,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acc_fusion.core.plots import plt
+from acc_fusion.core.plots import pyplot
 from acc_fusion.core.table import Table
 from acc_fusion.core.validation import check_range
 from acc_fusion.metrics.stats import Rate
@@ -264,6 +264,7 @@ def hazard_figure(off: HazardCounts, km: float, hours: float, rates: Naturalisti
     """The crashes of :func:`hazard_table` as a figure: per category the simulated rate (bar)
     and the re-weighted range (black ticks) in crashes per million km, on a log scale, beside
     the field's rate (grey band); the crash count at each bar.  Returns the figure."""
+    plt = pyplot()
     w = off.weights(rates, km / hours if hours > 0 else 0.0)
     crash = np.array(off.crashes, dtype=float)
     simulated, reweighted = crash / km * 1e6, w * crash / km * 1e6

@@ -54,7 +54,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import binom
+from scipy.special import bdtrc
 
 from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
@@ -114,7 +114,7 @@ class Requirement:
     def pass_probability(self, trial_pass_rate: float) -> float:
         """Probability of passing the protocol when each trial passes with this probability."""
         p = float(np.clip(trial_pass_rate, 0.0, 1.0))
-        return float(binom.sf(self.min_passes - 1, self.n_trials, p))
+        return float(bdtrc(self.min_passes - 1, self.n_trials, p))  # P(passes >= min_passes)
 
 
 def _nhtsa(scenario: str, test: str, ttc: float, verified: bool) -> Requirement:

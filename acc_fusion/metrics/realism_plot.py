@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from acc_fusion.core.plots import plt
+from acc_fusion.core.plots import pyplot
 from acc_fusion.metrics.realism import (
     MAX_HEADWAY,
     RealismStats,
@@ -24,6 +24,7 @@ def realism_figure(
     traj: Trajectories, stats: RealismStats, references: tuple[Reference, ...] = REFERENCES
 ):
     """The four panels of the module docstring for ``traj`` and its ``stats``."""
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(12, 8))
     _onsets(axes[0, 0], stats, references)
     headway_panel(axes[0, 1], time_headways(traj), references)

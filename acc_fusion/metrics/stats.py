@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.stats import chi2, norm
 
+from acc_fusion.core.distributions import chi2_ppf, norm_ppf
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.validation import check_range
 
@@ -68,7 +68,7 @@ def wilson_interval(
     over = k > n
     if np.any(over):
         raise InputError(f"k must be at most n, got k = {k[over][0]:g} with n = {n[over][0]:g}")
-    z = norm.ppf(1.0 - _alpha(confidence) / 2.0)
+    z = norm_ppf(1.0 - _alpha(confidence) / 2.0)
     safe_n = np.where(n > 0, n, 1.0)
     centre = (k + z * z / 2.0) / (safe_n + z * z)
     half = z / (safe_n + z * z) * np.sqrt(k * (safe_n - k) / safe_n + z * z / 4.0)
@@ -96,8 +96,8 @@ def poisson_rate_interval(
         raise InputError("exposure must be a finite number >= 0")
     alpha = _alpha(confidence)
     with np.errstate(divide="ignore", invalid="ignore"):
-        lo = np.where(k > 0, chi2.ppf(alpha / 2.0, np.maximum(2.0 * k, 1.0)) / 2.0, 0.0)
-        hi = chi2.ppf(1.0 - alpha / 2.0, 2.0 * k + 2.0) / 2.0
+        lo = np.where(k > 0, chi2_ppf(alpha / 2.0, np.maximum(2.0 * k, 1.0)) / 2.0, 0.0)
+        hi = chi2_ppf(1.0 - alpha / 2.0, 2.0 * k + 2.0) / 2.0
         lo = np.where(exposure > 0, lo / exposure, 0.0)
         hi = np.where(exposure > 0, hi / exposure, np.inf)
     return _out(lo), _out(hi)

@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
-from scipy.stats import chi2
 from tqdm.auto import tqdm
 
+from acc_fusion.core.distributions import chi2_ppf
 from acc_fusion.fusion.base import Estimate, Estimator
 from acc_fusion.sensors.sensor import Measurement, Sensor
 from acc_fusion.truth.frame import TruthFrame
@@ -39,7 +39,7 @@ def chi2_mean_bounds(dof: int, count: int, confidence: float = 0.95) -> tuple[fl
     """Two-sided acceptance interval of the mean of ``count`` independent χ²(dof) values."""
     a = (1.0 - confidence) / 2.0
     k = dof * count
-    return float(chi2.ppf(a, k) / count), float(chi2.ppf(1.0 - a, k) / count)
+    return float(chi2_ppf(a, k) / count), float(chi2_ppf(1.0 - a, k) / count)
 
 
 @dataclass

@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from acc_fusion.core.plots import plt
+from acc_fusion.core.plots import pyplot
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.summary import FCWSummary
 from acc_fusion.sim.closed_loop import SimConfig, simulate
@@ -117,6 +117,7 @@ class ReplayStudy:
 
     def headway_figure(self):
         """Histograms of the data's time headway and gap (every pair-step with a leader)."""
+        plt = pyplot()
         fig, axes = plt.subplots(1, 2, figsize=(11, 4))
         for ax, attr, bins, label in (
             (axes[0], "thw_counts", THW_BINS, "time headway [s]"),

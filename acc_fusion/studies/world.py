@@ -10,10 +10,9 @@ from pathlib import Path
 
 import numba
 import numpy as np
-from matplotlib.patches import Patch
 from tqdm.auto import tqdm
 
-from acc_fusion.core.plots import method_color, plt
+from acc_fusion.core.plots import method_color, pyplot
 from acc_fusion.core.pools import process_pool
 from acc_fusion.core.table import Table
 from acc_fusion.metrics.stats import Rate
@@ -140,6 +139,9 @@ class WorldStudy:
         """Nuisance (top row) and sensing-false (bottom row) warnings per 100 km by cause, a
         bar per method with its exact Poisson 95 % interval, one column per condition; a
         cause no method showed in a row is left out of it."""
+        from matplotlib.patches import Patch
+
+        plt = pyplot()
         rows = self.cause_rates().rows
         labels = list(dict.fromkeys(r["conditions"] for r in rows))
         methods = list(dict.fromkeys(r["method"] for r in rows))

@@ -55,7 +55,7 @@ def operating_points(cfg: SweepConfig, rows):
 def roc_figure(cfg: SweepConfig, table):
     """ROC (detection rate vs false alarms per hour) and DET (miss rate vs false alarms per
     hour, log-log) curves per method, from :func:`operating_points`."""
-    import matplotlib.pyplot as plt
+    plt = plots.pyplot()
 
     threshold = threshold_axis(cfg)
     split = cfg.report.curves_by
@@ -107,7 +107,7 @@ def roc_figure(cfg: SweepConfig, table):
 
 def fault_figure(cfg: SweepConfig, table):
     """False alarms per hour and miss rate per fault type (groups) and method (bars)."""
-    import matplotlib.pyplot as plt
+    plt = plots.pyplot()
 
     faults = list(dict.fromkeys(table["fault"]))
     methods = list(dict.fromkeys(table["method"]))
