@@ -28,7 +28,7 @@ from acc_fusion.cli.arguments import add_scenario_arguments, output_path
 from acc_fusion.cli.common import scenario_config
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.outputs import save_figure_atomic
-from acc_fusion.core.plots import plt
+from acc_fusion.core.plots import pyplot
 from acc_fusion.metrics.realism import MAX_HEADWAY, time_headways
 from acc_fusion.metrics.realism_plot import headway_panel
 from acc_fusion.metrics.realism_references import reference_of
@@ -53,6 +53,7 @@ def headways(config: SumoConfig, end: float, warmup: float, progress: bool = Tru
 
 def figure(h: np.ndarray, title: str):
     """Histogram and cumulative distribution of ``h`` with the reference's points."""
+    plt = pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     ax1.hist(h, bins=np.arange(0.0, MAX_HEADWAY + 0.1, 0.1), density=True, color="tab:blue")
     ax1.axvline(REFERENCE["median_s"], color="k", ls="--", label="King et al. 2022 median")

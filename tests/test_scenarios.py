@@ -208,30 +208,35 @@ def brake_when_close(frame):
     return np.where((frame.leader_id >= 0) & (frame.gap < 15.0), 5.0, np.nan)
 
 
-def assert_restarted_runs_follow(src, fresh, ref, mask, brake=brake_when_close):
+def assert_restarted_runs_follow(src, fresh, ref, mask, brake=brake_when_close, rows=None):
     """Step ``src`` (just restarted in ``mask``), ``fresh`` and ``ref`` (never restarted) to the
-    end with the same driver: ``src``'s rows in ``mask`` must follow ``fresh`` (leader ids
-    offset by ``SLOTS``), the others ``ref``."""
+    end with the same driver: ``src``'s rows in ``mask`` must follow ``fresh``'s ``rows``
+    (default: all; leader ids offset by ``SLOTS`` per restart), the others ``ref``."""
+    rows = np.arange(fresh.n_runs) if rows is None else rows
+    offset = SLOTS * (src.generation[mask] - fresh.generation[rows])
     k0 = int(round(src.t / src.dt))
-    rows = {"src": [], "fresh": [], "ref": []}
+    frames = {"src": [], "fresh": [], "ref": []}
     fs, ff, fr = src.frame(), fresh.frame(), ref.frame()
     for step in range(src.n_steps - k0 + 1):
         assert fs.t == pytest.approx((k0 + step) * src.dt, abs=1e-9)
         np.testing.assert_allclose(src.run_time[mask], step * src.dt, atol=1e-9)
         for key, frame, source in (("src", fs, src), ("fresh", ff, fresh), ("ref", fr, ref)):
             values = [getattr(frame, name) for name in (*FRAME_FIELDS, "leader_id")]
-            rows[key].append(np.stack([*values, source.active]))
+            frames[key].append(np.stack([*values, source.active]))
         b = brake(fs)
-        fs, ff, fr = src.advance(b), fresh.advance(b[mask]), ref.advance(b)
+        b_fresh = np.full(fresh.n_runs, np.nan)
+        b_fresh[rows] = b[mask]
+        fs, ff, fr = src.advance(b), fresh.advance(b_fresh), ref.advance(b)
         assert not src.reassigned.any()
-    assert src.done and fresh.done and ref.done
-    got, want, other = (np.array(rows[key]) for key in ("src", "fresh", "ref"))
+    assert src.done and not fresh.active[rows].any() and ref.done
+    got, want, other = (np.array(frames[key]) for key in ("src", "fresh", "ref"))
+    want = want[:, :, rows]
     ids = want[:, -2]
-    want[:, -2] = np.where(ids >= 0, ids + SLOTS, -1)
+    want[:, -2] = np.where(ids >= 0, ids + offset, -1)
     np.testing.assert_allclose(got[:, :, mask], want, atol=1e-9, rtol=0)
     np.testing.assert_array_equal(got[:, :, ~mask], other[:, :, ~mask])
     for name in ("end_time", "collided", "collision_speed"):
-        np.testing.assert_array_equal(getattr(src, name)[mask], getattr(fresh, name))
+        np.testing.assert_array_equal(getattr(src, name)[mask], getattr(fresh, name)[rows])
         np.testing.assert_array_equal(getattr(src, name)[~mask], getattr(ref, name)[~mask])
 
 
@@ -259,6 +264,28 @@ def test_restart_reproduces_a_fresh_source_and_leaves_the_other_runs_alone():
     assert a.n_steps == max(steps, k0 + fresh.n_steps)
     assert_restarted_runs_follow(a, fresh, b, mask)
     assert a.collided.any() and not a.collided.all()  # both endings were exercised
+
+
+def test_runs_drawn_ahead_start_as_a_fresh_source_runs_them_again_and_again():
+    """``start`` with a block of ``draw`` n: the masked runs follow the block's rows; a second
+    start writes into the source's own script (its arrays) and still reproduces them."""
+    n, dt = 30, 0.1
+    a, b = random_suite(n, 4, dt), random_suite(n, 4, dt)
+    block, fresh = a.draw(12, 5), ScenarioSource("random", 12, dt, 5)
+    first, second = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    first[[0, 3, 4, 20]], second[[3, 7, 29]] = True, True
+    for k in range(20):
+        if k == 10:
+            for src in (a, b):
+                src.start(first, block.take(slice(0, 4)))
+        a.advance(brake_when_close(a.frame())), b.advance(brake_when_close(b.frame()))
+    duration = a.duration
+    a.start(second, block.take(np.array([9, 4, 6])))
+    assert a.duration is not duration and np.array_equal(duration, b.duration)
+    np.testing.assert_array_equal(a.kind[second], fresh.kind[[9, 4, 6]])
+    assert_restarted_runs_follow(a, fresh, b, second, rows=np.array([9, 4, 6]))
+    with pytest.raises(InputError, match="draws must hold 3 runs"):
+        a.start(second, block.take(slice(0, 2)))
 
 
 def test_restart_can_bring_in_kinds_and_segments_the_source_did_not_have():

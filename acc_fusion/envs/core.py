@@ -10,8 +10,12 @@ from acc_fusion.envs.observation import track_entries
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sim.closed_loop import Perception
 from acc_fusion.truth.driver import Driver
-from acc_fusion.truth.scripted import make_scenario
+from acc_fusion.truth.scripted import ScenarioSource, make_scenario
 from acc_fusion.warning.safety import safety_distances
+
+#: Runs of the scripted scenario drawn at a time for the copies' new episodes: a few copies end
+#: at almost every step, and drawing a handful of runs costs about as much as drawing 256.
+DRAW_BLOCK = 256
 
 
 def _single(info: dict) -> dict:
@@ -52,6 +56,7 @@ class _Core:
         self.steps = np.zeros(n, dtype=np.int64)
         self.last_seen = np.full((len(SENSOR_NAMES), n), -np.inf)
         self.collided = np.zeros(n, dtype=bool)
+        self._drawn, self._next = None, 0  # the scripted runs drawn ahead, the next to start
         self._perceive(None)
 
     @property
@@ -78,7 +83,7 @@ class _Core:
         self.collided = self.source.collided & ~was
         reward = self._reward(action)
         if restart is not None and restart.any():
-            self.source.restart(restart, np.random.default_rng(int(rng.integers(2**63))))
+            self._new_episodes(restart, np.random.default_rng(int(rng.integers(2**63))))
             self._restart(restart)
             self.steps[restart] = 0
             self.last_seen[:, restart] = -np.inf
@@ -86,6 +91,18 @@ class _Core:
             reward[restart] = 0.0
         self._perceive(restart)
         return reward
+
+    def _new_episodes(self, restart: np.ndarray, seed: np.random.Generator) -> None:
+        """Start new runs in the copies ``restart``: a scripted source's next runs of those it
+        drew ahead (:data:`DRAW_BLOCK` at a time, from ``seed``), any other source's restart."""
+        if not isinstance(self.source, ScenarioSource):
+            self.source.restart(restart, seed)
+            return
+        k = int(restart.sum())
+        if self._drawn is None or self._next + k > self._drawn.n_runs:
+            self._drawn, self._next = self.source.draw(max(DRAW_BLOCK, k), seed), 0
+        self.source.start(restart, self._drawn.take(slice(self._next, self._next + k)))
+        self._next += k
 
     def _brakes(self, action: np.ndarray) -> np.ndarray:
         """The brake requests [m/s²] of the step: the drivers', who hear the warnings."""

@@ -12,7 +12,7 @@ from acc_fusion.metrics.summary import CAUSE_CELLS, CAUSE_COUNTS
 from acc_fusion.sim.closed_loop import SimConfig, simulate
 from acc_fusion.sim.world import simulate_world
 from acc_fusion.studies.traffic import _run
-from acc_fusion.sweep.columns import COUNT_COLUMNS, ID_COLUMNS, SUM_COLUMNS
+from acc_fusion.sweep.columns import COUNT_COLUMNS, SUM_COLUMNS
 from acc_fusion.sweep.points import Chunk, _sumo_config
 
 
@@ -31,24 +31,22 @@ def run_chunk(chunk: Chunk) -> dict[str, list]:
         result = simulate_world(sim) if point.source == "world" else simulate(sim)
         steps = result.steps
         per_run = {m: s.per_pair for m, s in result.summaries.items()}
-    cols: dict[str, list] = {c: [] for c in (*ID_COLUMNS, *point.columns, "fault", "method")}
-    for c in (*COUNT_COLUMNS, *SUM_COLUMNS, "steps"):
-        cols[c] = []
-    for i in range(chunk.n_runs):
-        run_index = chunk.first + i
-        for method, figures in per_run.items():
-            cols["run_id"].append(f"{point.id}-s{chunk.seed}-r{run_index:07d}")
-            cols["point_id"].append(point.id)
-            cols["chunk_id"].append(chunk.id)
-            cols["seed"].append(chunk.seed)
-            cols["run"].append(run_index)
-            for key, value in point.columns.items():
-                cols[key].append(value)
-            cols["fault"].append(point.fault)
-            cols["method"].append(method)
-            for c in (*COUNT_COLUMNS, *SUM_COLUMNS):
-                cols[c].append(figures[c][i].item())
-            cols["steps"].append(steps)
+    methods = list(per_run)
+    rows = chunk.n_runs * len(methods)  # run by run, each run's methods in order
+    runs = np.repeat(np.arange(chunk.first, chunk.first + chunk.n_runs), len(methods)).tolist()
+    cols: dict[str, list] = {
+        "run_id": [f"{point.id}-s{chunk.seed}-r{r:07d}" for r in runs],
+        "point_id": [point.id] * rows,
+        "chunk_id": [chunk.id] * rows,
+        "seed": [chunk.seed] * rows,
+        "run": runs,
+        **{key: [value] * rows for key, value in point.columns.items()},
+        "fault": [point.fault] * rows,
+        "method": methods * chunk.n_runs,
+    }
+    for c in (*COUNT_COLUMNS, *SUM_COLUMNS):
+        cols[c] = np.stack([per_run[m][c] for m in methods], axis=1).reshape(-1).tolist()
+    cols["steps"] = [steps] * rows
     return cols
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, fields
 from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.units import KMH, MPH, G
@@ -74,19 +75,49 @@ class IDMParameters:
     exponent: float = 4.0
     max_decel: float = 9.0
 
+    @property
+    def constants(self) -> tuple[float, float, float, float, float]:
+        r"""The arguments of :func:`idm_accel` after the state: :math:`a_{\max}`,
+        :math:`2\sqrt{a_{\max} b}`, :math:`s_0`, :math:`\delta` and the braking limit."""
+        root = 2.0 * math.sqrt(self.max_accel * self.comfortable_decel)
+        return self.max_accel, root, self.jam_distance, self.exponent, self.max_decel
+
     def accel(self, v, v_desired, headway, gap, lead_speed, has_leader) -> np.ndarray:
-        """IDM acceleration [m/s²] of egos at speed ``v`` (all arrays ``(N,)``)."""
-        free = 1.0 - (v / v_desired) ** self.exponent
-        dynamic = v * headway + v * (v - lead_speed) / (
-            2.0 * math.sqrt(self.max_accel * self.comfortable_decel)
-        )
-        s_star = self.jam_distance + np.maximum(dynamic, 0.0)
-        interaction = np.where(has_leader, (s_star / np.maximum(gap, 1e-3)) ** 2, 0.0)
-        return np.clip(self.max_accel * (free - interaction), -self.max_decel, self.max_accel)
+        """IDM acceleration [m/s²] of egos at speed ``v`` (arrays ``(N,)``, or scalars for the
+        parameters shared by every ego)."""
+        args = [np.asarray(a, dtype=float) for a in (v, v_desired, headway, gap, lead_speed)]
+        args.append(np.asarray(has_leader, dtype=bool))
+        shape = np.broadcast_shapes(*(a.shape for a in args))
+        return _idm_accel_array(*(np.broadcast_to(a, shape) for a in args), *self.constants)
 
     def equilibrium_gap(self, v, headway, v_desired) -> np.ndarray:
         """Gap [m] at which an IDM ego following a leader at its own speed ``v`` keeps ``a = 0``."""
         return (self.jam_distance + v * headway) / np.sqrt(1.0 - (v / v_desired) ** self.exponent)
+
+
+@njit(cache=True)
+def idm_accel(v, v_desired, headway, gap, lead_speed, has_leader, a_max, root, s0, delta, d_max):
+    r"""The acceleration of :class:`IDMParameters` for one ego (``root`` is
+    :math:`2\sqrt{a_{\max} b}`): the scripted source's compiled step calls it per run."""
+    free = 1.0 - (v / v_desired) ** delta
+    dynamic = v * headway + v * (v - lead_speed) / root
+    s_star = s0 + np.maximum(dynamic, 0.0)
+    interaction = 0.0
+    if has_leader:
+        q = s_star / np.maximum(gap, 1e-3)
+        interaction = q * q
+    return np.minimum(np.maximum(a_max * (free - interaction), -d_max), a_max)
+
+
+@njit(cache=True)
+def _idm_accel_array(v, v_desired, headway, gap, lead_speed, has, a_max, root, s0, delta, d_max):
+    out = np.empty(v.shape)
+    for i in np.ndindex(v.shape):
+        out[i] = idm_accel(
+            v[i], v_desired[i], headway[i], gap[i], lead_speed[i], has[i],
+            a_max, root, s0, delta, d_max,
+        )  # fmt: skip
+    return out
 
 
 #: The IDM used by the following manoeuvres.

@@ -43,7 +43,7 @@ Manoeuvres (:data:`SCENARIOS`)
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import partial
 from typing import Any
 
@@ -99,6 +99,26 @@ class _Vehicle:
     speed: np.ndarray
     events: tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...] = ()  # (t, target, rate)
     lateral: tuple[Any, Any, Any, Any] = (0.0, 0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Draws:
+    """Runs of a scenario drawn and not yet started
+    (:meth:`~acc_fusion.truth.scripted.ScenarioSource.draw`): their script, parameters and
+    kinds, ``n_runs`` of each."""
+
+    plan: _Plan
+    run_params: dict[str, np.ndarray]
+    kind: np.ndarray
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.kind.shape[0])
+
+    def take(self, rows: slice | np.ndarray) -> Draws:
+        """The runs ``rows`` of these (a slice or an index array)."""
+        plan = _Plan(**{f.name: getattr(self.plan, f.name)[rows] for f in fields(_Plan)})
+        return Draws(plan, {k: v[rows] for k, v in self.run_params.items()}, self.kind[rows])
 
 
 def _plan(ego_speed, vehicles, duration, horizon, idm=None) -> _Plan:
@@ -382,10 +402,7 @@ def _merge(parts: list[tuple[np.ndarray, _Plan]], n: int) -> _Plan:
     k = max(plan.seg_t.shape[-1] for _, plan in parts)
     merged = {}
     for f in fields(_Plan):
-        arrays = [getattr(plan, f.name) for _, plan in parts]
-        if f.name.startswith("seg_"):
-            fill = np.inf if f.name == "seg_t" else 0.0
-            arrays = [_pad_segments(a, k, fill) for a in arrays]
+        arrays = [_padded(f.name, getattr(plan, f.name), k) for _, plan in parts]
         out = np.empty((n, *arrays[0].shape[1:]), dtype=arrays[0].dtype)
         for (idx, _), a in zip(parts, arrays, strict=True):
             out[idx] = a
@@ -393,22 +410,37 @@ def _merge(parts: list[tuple[np.ndarray, _Plan]], n: int) -> _Plan:
     return _Plan(**merged)
 
 
+def _merge_into(plan: _Plan, idx: np.ndarray, sub: _Plan) -> _Plan | None:
+    """``plan`` with its runs ``idx`` replaced by ``sub``'s, written into ``plan``'s arrays
+    (which must be its own) except ``duration`` (a new array: it is handed out); ``None``
+    when ``sub``'s speed programs are longer than ``plan``'s or a dtype would change."""
+    k = plan.seg_t.shape[-1]
+    if sub.seg_t.shape[-1] > k or any(
+        np.result_type(getattr(plan, f.name), getattr(sub, f.name)) != getattr(plan, f.name).dtype
+        for f in fields(_Plan)
+    ):
+        return None
+    for f in fields(_Plan):
+        if f.name != "duration":
+            getattr(plan, f.name)[idx] = _padded(f.name, getattr(sub, f.name), k)
+    duration = plan.duration.copy()
+    duration[idx] = sub.duration
+    return replace(plan, duration=duration)
+
+
+def _padded(name: str, a: np.ndarray, k: int) -> np.ndarray:
+    """Field ``name`` of a plan with its speed programs padded to ``k`` segments (segments
+    that never start: at ``inf``, to speed 0 at rate 0)."""
+    if not name.startswith("seg_"):
+        return a
+    return _pad_segments(a, k, np.inf if name == "seg_t" else 0.0)
+
+
 #: Registry of the manoeuvres: name -> :class:`Manoeuvre`.
 SCENARIOS: dict[str, Manoeuvre] = {
     **{name: Manoeuvre(cls, partial(_build_one, name)) for name, (cls, _) in _BUILDERS.items()},
     "random": Manoeuvre(RandomSuiteParams, _build_random),
 }
-
-
-def _ramp(x, v, target, rate, dt):
-    """Exact motion over ``dt`` toward speed ``target`` at ``|a| = rate``, then holding it."""
-    dv = target - v
-    with np.errstate(divide="ignore", invalid="ignore"):
-        reached = rate * dt >= np.abs(dv)
-        tau = np.where(reached, np.abs(dv) / np.where(rate > 0, rate, 1.0), dt)
-    a = np.sign(dv) * rate
-    x_new = x + v * dt + 0.5 * a * tau**2 + a * tau * (dt - tau)
-    return x_new, np.where(reached, target, v + a * dt)
 
 
 def _ranges_table() -> str:

@@ -86,9 +86,10 @@ from acc_fusion.core.config import from_mapping
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import TIME_TOL
 from acc_fusion.core.validation import check_choice, check_range
+from acc_fusion.truth import scripted_kernels as kernels
 from acc_fusion.truth.frame import TruthFrame
 from acc_fusion.truth.manoeuvre_params import IDM, OVERLAP_OFFSET, SLOTS, VEHICLE_LENGTH
-from acc_fusion.truth.manoeuvres import SCENARIOS, _merge, _ramp, _ranges_table
+from acc_fusion.truth.manoeuvres import SCENARIOS, Draws, _merge, _merge_into, _ranges_table
 
 
 @dataclass(frozen=True)
@@ -123,17 +124,18 @@ class ScenarioState:
     active: np.ndarray
 
     def frame(self) -> TruthFrame:
-        """The :class:`~acc_fusion.truth.frame.TruthFrame` of this state."""
+        """The :class:`~acc_fusion.truth.frame.TruthFrame` of this state (its arrays are the
+        source's own, float64 and int64, finite where a leader is shown: taken unchecked)."""
         has = self.leader_id >= 0
-        return TruthFrame(
-            t=self.t,
-            ego_speed=self.ego_speed,
-            ego_accel=self.ego_accel,
-            gap=self.gap,
-            lead_speed=self.lead_speed,
-            lead_accel=self.lead_accel,
-            leader_id=self.leader_id,
-            lateral_offset=np.where(has, self.lateral_offset, 0.0),
+        return TruthFrame.from_arrays(
+            self.t,
+            self.ego_speed,
+            self.ego_accel,
+            self.gap,
+            self.lead_speed,
+            self.lead_accel,
+            self.leader_id,
+            np.where(has, self.lateral_offset, 0.0),
         )
 
 
@@ -192,6 +194,7 @@ class ScenarioSource:
             params, self.n_runs, np.random.default_rng(seed), horizon
         )
         self._plan = plan
+        self._own_plan = False  # the plan's arrays may be the run parameters' own
         self.duration = plan.duration
         self._k = 0
         self._k0 = np.zeros(self.n_runs, dtype=np.int64)  # step at which each run started
@@ -210,6 +213,7 @@ class ScenarioSource:
         self._collided = np.zeros(self.n_runs, dtype=bool)
         self._collision_speed = np.full(self.n_runs, np.nan)
         self._rows = np.arange(self.n_runs)
+        self._leaders: tuple | None = None  # the leaders of the current state, kept by advance
         self._frame: TruthFrame | None = None  # the frame of this step, built on demand
 
     # ---- public state
@@ -283,29 +287,24 @@ class ScenarioSource:
 
     def state(self) -> ScenarioState:
         """The full state of every run now."""
-        slot, has, gap, lat = leader = self._leader()
-        _, target, rate = self._controls(leader)
-        active = self.active
-        show = has & (self._run_t <= self._end_time + TIME_TOL)
-        moving = active[:, None] & (self._v != target)
-        lead_a = np.where(moving, np.sign(target - self._v) * rate, 0.0)[self._rows, slot]
-
-        def lead(values: np.ndarray) -> np.ndarray:
-            return np.where(show, values, np.nan)
-
+        plan = self._plan
+        (position, speed, accel, length, gap, lat), ids = kernels.lead_state(
+            plan.seg_t, plan.seg_v, plan.seg_rate, self._run_t, self._end_time, TIME_TOL,
+            self._x, self._v, *self._leader(), self._generation, SLOTS, VEHICLE_LENGTH,
+        )  # fmt: skip
         return ScenarioState(
             t=self.t,
             ego_position=self._ego_x.copy(),
             ego_speed=self._ego_v.copy(),
             ego_accel=self._ego_a.copy(),
-            lead_position=lead(self._x[self._rows, slot]),
-            lead_speed=lead(self._v[self._rows, slot]),
-            lead_accel=lead(lead_a),
-            lead_length=lead(np.full(self.n_runs, VEHICLE_LENGTH)),
-            gap=lead(gap),
-            leader_id=np.where(show, slot + 1 + SLOTS * self._generation, -1).astype(np.int64),
-            lateral_offset=lead(lat),
-            active=active,
+            lead_position=position,
+            lead_speed=speed,
+            lead_accel=accel,
+            lead_length=length,
+            gap=gap,
+            leader_id=ids,
+            lateral_offset=lat,
+            active=self.active,
         )
 
     def frame(self) -> TruthFrame:
@@ -334,38 +333,34 @@ class ScenarioSource:
             "ego_brake", np.where(np.isnan(brake), 0.0, brake), nonnegative=True
         )
         self._hold = check_array("hold", np.zeros(n) if hold is None else hold, (n,)).astype(bool)
-        active = self.active
-        ego_a, target, rate = self._controls()
-        ego_x, ego_v = _ramp(
-            self._ego_x, self._ego_v, np.where(ego_a < 0, 0.0, np.inf), np.abs(ego_a), self.dt
-        )
-        x, v = _ramp(self._x, self._v, target, rate, self.dt)
-        self._ego_a = np.where(active, (ego_v - self._ego_v) / self.dt, 0.0)
-        self._ego_x = np.where(active, ego_x, self._ego_x)
-        self._ego_v = np.where(active, ego_v, self._ego_v)
-        self._x = np.where(active[:, None], x, self._x)
-        self._v = np.where(active[:, None], v, self._v)
-        self._braked |= active & (self._brake > 0)
         self._frame = None
         self._k += 1
-        self._run_t = (self._k - self._k0) * self.dt
         self._reassigned.fill(False)
-        self._settle(active)
+        plan = self._plan
+        kernels.step(
+            plan.seg_t, plan.seg_v, plan.seg_rate, plan.lateral, plan.present, plan.idm,
+            plan.desired_speed, plan.time_headway, self.duration,
+            self._x, self._v, self._ego_x, self._ego_v, self._ego_a, self._brake, self._hold,
+            self._braked, self._end_time, self._collided, self._collision_speed,
+            self._run_t, self._k, self._k0, self.dt, TIME_TOL, OVERLAP_OFFSET, VEHICLE_LENGTH,
+            IDM.constants, *self._leader(),
+        )  # fmt: skip
         return self.frame()
+
+    def draw(self, n: int, seed: int | np.random.Generator | None) -> Draws:
+        """``n`` runs of this source's scenario, drawn exactly as a fresh
+        ``ScenarioSource(name, n, dt, seed, params, duration)`` draws its runs, for
+        :meth:`start`."""
+        return Draws(*self._build(self.params, n, np.random.default_rng(seed), self._horizon))
 
     def restart(self, mask: np.ndarray, seed: int | np.random.Generator | None) -> None:
         """Start a new run of the scenario, now, for the runs in ``mask``; the others continue.
 
         The new runs are drawn exactly as a fresh
         ``ScenarioSource(name, mask.sum(), dt, seed, params, duration)`` would draw its runs
-        (the i-th masked run is that source's run i; same params, duration and ``dt``), and
-        from now on each follows that fresh run step for step: its frame now is the fresh
-        source's first frame, ``k`` steps later its ``k``-th frame, in run time
-        :attr:`run_time` (reset to 0).  Its leader ids are offset by :data:`SLOTS` per restart
-        (:attr:`generation`); ``frame().t`` stays the global time.  The run's ``kind``,
-        ``run_params``, ``duration``, collision and end bookkeeping are replaced (new arrays:
-        arrays read before stay unchanged), and :attr:`reassigned` flags it until the next
-        :meth:`advance`.  An all-False mask does nothing (and draws nothing from ``seed``).
+        (the i-th masked run is that source's run i; same params, duration and ``dt``):
+        :meth:`start` with :meth:`draw`.  An all-False mask does nothing (and draws nothing
+        from ``seed``).
 
         Args:
             mask: ``(N,)`` boolean array of the runs to restart.
@@ -374,25 +369,59 @@ class ScenarioSource:
         Raises:
             InputError: ``mask`` is not a boolean array of shape ``(N,)``.
         """
+        idx = self._restarted(mask)
+        if idx.size:
+            self._start(idx, self.draw(idx.size, seed))
+
+    def start(self, mask: np.ndarray, draws: Draws) -> None:
+        """Start the runs of ``draws`` (:meth:`draw`), in order, now, in the runs of ``mask``;
+        the others continue.
+
+        From now on each masked run follows its drawn run step for step as a fresh source
+        would: its frame now is that source's first frame, ``k`` steps later its ``k``-th
+        frame, in run time :attr:`run_time` (reset to 0).  Its leader ids are offset by
+        :data:`SLOTS` per restart (:attr:`generation`); ``frame().t`` stays the global time.
+        The run's ``kind``, ``run_params``, ``duration``, collision and end bookkeeping are
+        replaced (new arrays: arrays read before stay unchanged), and :attr:`reassigned` flags
+        it until the next :meth:`advance`.  Drawing runs ahead in blocks and starting them a
+        few at a time (the vector environment's episodes) costs a fraction of a
+        :meth:`restart` each.
+
+        Raises:
+            InputError: ``mask`` is not a boolean array of shape ``(N,)``, or ``draws`` does
+                not hold one run per masked run.
+        """
+        idx = self._restarted(mask)
+        if idx.size != draws.n_runs:
+            raise InputError(
+                f"draws must hold {idx.size} runs (one per masked run), got {draws.n_runs}"
+            )
+        if idx.size:
+            self._start(idx, draws)
+
+    def _restarted(self, mask: np.ndarray) -> np.ndarray:
+        """The indices of the runs of ``mask`` (checked: boolean, shape ``(N,)``)."""
         mask = np.asarray(mask)
         if mask.shape != (self.n_runs,):
             raise InputError(f"mask must have shape ({self.n_runs},), got {mask.shape}")
         if mask.dtype != bool:
             raise InputError(f"mask must be a boolean array, got dtype {mask.dtype}")
-        idx = np.flatnonzero(mask)
-        if idx.size == 0:
-            return
-        sub, runs, kinds = self._build(
-            self.params, idx.size, np.random.default_rng(seed), self._horizon
-        )
-        self._plan = _merge([(self._rows, self._plan), (idx, sub)], self.n_runs)
+        return np.flatnonzero(mask)
+
+    def _start(self, idx: np.ndarray, draws: Draws) -> None:
+        sub, runs, kinds = draws.plan, draws.run_params, draws.kind
+        plan = _merge_into(self._plan, idx, sub) if self._own_plan else None
+        if plan is None:  # a new plan (its arrays the source's own from now on)
+            plan = _merge([(self._rows, self._plan), (idx, sub)], self.n_runs)
+        self._plan, self._own_plan = plan, True
         self.duration = self._plan.duration
         kind = self.kind.astype(np.promote_types(self.kind.dtype, kinds.dtype))
         kind[idx] = kinds
         self.kind = kind
         run_params = {}
         for name in [*self.run_params, *(f for f in runs if f not in self.run_params)]:
-            column = np.array(self.run_params.get(name, np.full(self.n_runs, np.nan)), float)
+            old = self.run_params.get(name)
+            column = np.full(self.n_runs, np.nan) if old is None else np.array(old, float)
             column[idx] = runs.get(name, np.nan)
             run_params[name] = column
         self.run_params = run_params
@@ -412,54 +441,18 @@ class ScenarioSource:
         self._end_time[idx] = np.inf
         self._collided[idx] = False
         self._collision_speed[idx] = np.nan
+        self._leaders = None
 
     # ---- internals
-    def _lateral(self) -> np.ndarray:
-        start, frm, to, span = np.moveaxis(self._plan.lateral, -1, 0)
-        u = np.clip((self._run_t[:, None] - start) / span, 0.0, 1.0)
-        return frm + (to - frm) * u * u * (3.0 - 2.0 * u)
-
-    def _leader(self):
-        """Leader slot, has-leader mask, gap and lateral offset of every run (``(N,)`` each)."""
-        lat = self._lateral()
-        ahead = self._x + VEHICLE_LENGTH > self._ego_x[:, None]
-        candidate = self._plan.present & (np.abs(lat) < OVERLAP_OFFSET) & ahead
-        gaps = np.where(candidate, self._x - self._ego_x[:, None], np.inf)
-        slot = np.argmin(gaps, axis=1)
-        return slot, candidate.any(axis=1), gaps[self._rows, slot], lat[self._rows, slot]
-
-    def _controls(self, leader=None):
-        """Ego acceleration, other vehicles' target speeds and rates (``leader``: known)."""
-        plan = self._plan
-        now = self._run_t[:, None, None] + TIME_TOL
-        seg = np.sum(plan.seg_t <= now, axis=-1, keepdims=True) - 1
-        target = np.take_along_axis(plan.seg_v, seg, axis=-1)[..., 0]
-        rate = np.take_along_axis(plan.seg_rate, seg, axis=-1)[..., 0]
-        slot, has, gap, _ = self._leader() if leader is None else leader
-        lead_v = self._v[self._rows, slot]
-        idm = IDM.accel(self._ego_v, plan.desired_speed, plan.time_headway, gap, lead_v, has)
-        own = np.where(plan.idm & ~self._hold, idm, 0.0)
-        ego_a = np.where(self._brake > 0, -self._brake, own)
-        return ego_a, target, rate
-
-    def _settle(self, active: np.ndarray) -> None:
-        """Collisions and run ends after a step."""
-        slot, has, gap, _ = self._leader()
-        hit = active & has & (gap <= 1e-9)
-        if hit.any():
-            rows, lead = self._rows[hit], slot[hit]
-            self._collision_speed[hit] = self._ego_v[hit] - self._v[rows, lead]
-            self._ego_x[hit] = self._x[rows, lead]
-            self._ego_v[hit] = 0.0
-            self._v[rows, lead] = 0.0
-            self._collided |= hit
-        lead_v = self._v[self._rows, slot]
-        resolved = (
-            ~self._plan.idm & self._braked & ((self._ego_v <= 0) | ~has | (lead_v >= self._ego_v))
-        )
-        timeout = self._run_t >= self.duration - TIME_TOL
-        ended = active & (hit | resolved | timeout)
-        self._end_time[ended] = self._run_t[ended]
+    def _leader(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Leader slot, has-leader mask, gap and lateral offset of every run (``(N,)`` each):
+        those :meth:`advance` left, or found afresh after a construction or a restart."""
+        if self._leaders is None:
+            self._leaders = kernels.leaders(
+                self._x, self._ego_x, self._run_t, self._plan.present, self._plan.lateral,
+                OVERLAP_OFFSET, VEHICLE_LENGTH,
+            )  # fmt: skip
+        return self._leaders
 
 
 def make_scenario(
