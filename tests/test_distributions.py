@@ -34,9 +34,12 @@ def test_binomial_isf_is_the_smallest_count_beyond_which_the_tail_is_at_most_q()
     assert binom_isf(1e-12, 4, 0.5) == 4
 
 
-def test_a_simulation_worker_does_not_import_scipy_stats_nor_matplotlib():
+def test_a_simulation_does_not_import_scipy_stats_matplotlib_nor_filterpy():
+    """Each takes 0.5-1 s to import, paid by every command and every worker of a sweep."""
     code = (
-        "import sys, acc_fusion.sweep.chunks, acc_fusion.cli.main; "
+        "import sys, acc_fusion.sweep.chunks, acc_fusion.cli.main\n"
+        "from acc_fusion.sim.closed_loop import SimConfig, simulate\n"
+        "simulate(SimConfig(runs=2, duration=1.0, seed=0))\n"
         "print(sorted(m for m in ('scipy.stats', 'matplotlib', 'filterpy') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

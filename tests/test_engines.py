@@ -184,3 +184,12 @@ def test_the_parallel_kalman_kernels_equal_the_serial_ones_bit_for_bit():
         np.testing.assert_array_equal(par, ser)
     np.testing.assert_array_equal(results[0][2], results[0][3])  # the prior's NIS is the update's
     assert np.isnan(results[0][2]).sum() == np.sum(~rows.any(axis=1))
+
+
+@pytest.mark.parametrize("dt", [0.01, 0.04, 0.05, 1 / 15, 0.1, 1.0])
+@pytest.mark.parametrize("jerk_std", [0.0, 0.5, 2.0, 7.3])
+def test_the_process_noise_is_filterpys_bit_for_bit(dt, jerk_std):
+    from filterpy.common import Q_discrete_white_noise
+
+    want = Q_discrete_white_noise(dim=3, dt=dt, var=(jerk_std * dt) ** 2)
+    np.testing.assert_array_equal(ca_process_noise(dt, jerk_std), want)

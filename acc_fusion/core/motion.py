@@ -58,14 +58,19 @@ def ego_input(dt: float) -> np.ndarray:
 
 
 def ca_process_noise(dt: float, jerk_std: float) -> np.ndarray:
-    r"""Process noise :math:`Q = G G^\top (\sigma_j T)^2` (filterpy ``Q_discrete_white_noise``).
+    r"""Process noise :math:`Q = G G^\top (\sigma_j T)^2`, :math:`G = [T^2/2,\ T,\ 1]^\top`
+    (Bar-Shalom, Li & Kirubarajan, *Estimation with Applications to Tracking and
+    Navigation*, 2001, p. 274): filterpy's ``Q_discrete_white_noise(dim=3, dt, var)``, the
+    same expressions, bit for bit (``tests/test_engines.py``), without importing filterpy,
+    which brings scipy.stats (about 0.8 s) into every simulating process.
 
     ``jerk_std`` is :math:`\sigma_j` in m/s³.
     """
-    # Imported here: filterpy brings scipy.stats (about 0.8 s), which the truth sources
-    # (SUMO's child process among them) import this module without needing.
-    from filterpy.common import Q_discrete_white_noise
-
     dt = check_range("dt", dt, 0.0, lo_open=True)
     jerk_std = check_range("jerk_std", jerk_std, 0.0)
-    return np.asarray(Q_discrete_white_noise(dim=3, dt=dt, var=(jerk_std * dt) ** 2), dtype=float)
+    g_gt = [
+        [0.25 * dt**4, 0.5 * dt**3, 0.5 * dt**2],
+        [0.5 * dt**3, dt**2, dt],
+        [0.5 * dt**2, dt, 1.0],
+    ]
+    return np.array(g_gt) * (jerk_std * dt) ** 2

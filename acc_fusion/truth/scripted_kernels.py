@@ -36,7 +36,7 @@ def _ramp(x, v, target, rate, dt):  # pragma: no cover - compiled
     return x_new, (target if reached else v + a * dt)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def find_leader(
     i, x, ego_x, run_t, present, lateral, overlap, length, slot, has, gap, lat
 ):  # pragma: no cover
