@@ -16,22 +16,12 @@ from acc_fusion.truth.manoeuvre_params import idm_accel
 
 
 @njit(cache=True, inline="always")
-def _sign(x):  # pragma: no cover - compiled
-    """``np.sign``: -1, 0 or 1 (NaN for NaN)."""
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    return x * 0.0 if x != x else 0.0
-
-
-@njit(cache=True, inline="always")
 def _ramp(x, v, target, rate, dt):  # pragma: no cover - compiled
     """Exact motion over ``dt`` toward speed ``target`` at ``|a| = rate``, then holding it."""
     dv = target - v
     reached = rate * dt >= np.abs(dv)
     tau = np.abs(dv) / (rate if rate > 0 else 1.0) if reached else dt
-    a = _sign(dv) * rate
+    a = np.sign(dv) * rate
     x_new = x + v * dt + 0.5 * a * (tau * tau) + a * tau * (dt - tau)
     return x_new, (target if reached else v + a * dt)
 
@@ -124,7 +114,7 @@ def lead_state(
         target, rate = _segment(i, s, seg_t, seg_v, seg_rate, run_t[i] + tol)
         accel = 0.0
         if np.isinf(end_time[i]) and v[i, s] != target:
-            accel = _sign(target - v[i, s]) * rate
+            accel = np.sign(target - v[i, s]) * rate
         out[0, i], out[1, i], out[2, i] = x[i, s], v[i, s], accel
         out[3, i], out[4, i], out[5, i] = length, gap[i], lat[i]
         ids[i] = s + 1 + slots * generation[i]
