@@ -52,11 +52,12 @@ def trace(src, objects) -> list[dict]:
 
 def test_the_background_sends_the_object_frames_of_the_in_process_source():
     """Bit for bit, for prefixes shorter and longer than the slots the child sends (it sends
-    those up to the last one holding a vehicle), across many wraps of the ring."""
-    config = motorway(end=40.0)
+    those up to the last one holding a vehicle), across many wraps of the ring; with the
+    map's path of each ego."""
+    config, field = motorway(end=40.0), ObjectFieldConfig(map_path=True)
     with SumoSource(config) as src:
-        inline = trace(src, SumoObjects(src))
-    with BackgroundSumoSource(config, objects=ObjectFieldConfig()) as src:
+        inline = trace(src, SumoObjects(src, field))
+    with BackgroundSumoSource(config, objects=field) as src:
         background = trace(src, src.objects)
         assert src._returned > 3 * src._ring.size
     assert len(inline) == len(background) == 3 * 401

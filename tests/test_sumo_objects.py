@@ -180,7 +180,7 @@ def test_the_compiled_reader_and_libsumo_s_getters_give_the_same_frames():
     for native in (True, False):
         config = SumoConfig(str(bundled_nets()["motorway"]), end=20, seed=5, native=native)
         with SumoSource(config) as src:
-            objects = SumoObjects(src, ObjectFieldConfig(ahead=120.0, lateral=8.0))
+            objects = SumoObjects(src, ObjectFieldConfig(ahead=120.0, lateral=8.0, map_path=True))
             assert (objects._native is not None) == native
             for _ in range(150):
                 src.advance()

@@ -81,7 +81,7 @@ class _Episode:
         self.config, self.reward, self.dt = config, reward, config.dt
         self.method = config.methods[0]
         scene = SceneConfig(scene=config.world.scene, runs=1, dt=config.dt)
-        self.source = SceneSource(scene, np.random.default_rng(s_source))
+        self.source = SceneSource(scene, np.random.default_rng(s_source), config.world.map_path)
         self.perception = _SeenPerception(config, 1, s_perception)
         self.selector = self.perception.selectors[self.method]
         self.driver = Driver(1, config.driver, seed=np.random.default_rng(s_driver))

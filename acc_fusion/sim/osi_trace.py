@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +98,7 @@ def read_channels(path: str | Path, wanted: Sequence[str]) -> dict[str, list]:
 
 def ego_row(frame: ObjectFrame, e: int) -> ObjectFrame:
     """The frame of ego ``e`` alone (views of ``frame``'s arrays)."""
-    arrays = {f.name: getattr(frame, f.name)[e : e + 1] for f in fields(frame) if f.name != "t"}
-    return ObjectFrame.from_arrays(frame.t, **arrays)
+    return frame.egos(e, e + 1)
 
 
 class OsiRecorder:

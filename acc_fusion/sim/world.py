@@ -49,6 +49,7 @@ from acc_fusion.fusion.tracking.association import (
 from acc_fusion.fusion.tracking.tracker import Tracker, Tracks
 from acc_fusion.metrics.summary import CAUSES
 from acc_fusion.sensors.detections import Detections
+from acc_fusion.sensors.localization import MapLocalization
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.sensors.suite2d import sensors_2d
 from acc_fusion.sim.closed_loop import (
@@ -211,6 +212,11 @@ class WorldPerception(PairState):
         self.slots = self.associator.n_slots
         self._read_ego = _EgoSensors(n, np.random.default_rng(s_ego))
         self._gyro = np.random.default_rng(s_gyro)
+        sel = world.selection
+        self._map = None if not world.map_path else MapLocalization(
+            sel.map_lateral_std, sel.map_heading_std, sel.map_error_time, n,
+            np.random.default_rng(seed.spawn(1)[0]),
+        )  # fmt: skip
         self.ego = EgoMotionFilter(n, EgoFilterConfig(fs=1.0 / config.dt, interval_accel=True))
         filters = replace(config.fusion.filter, dt=config.dt, ego_accel_std=ACCEL_STD)
         # A fused object's R is the converted 2-D covariance of its detection, its range std
@@ -234,8 +240,9 @@ class WorldPerception(PairState):
 
     def _resized(self, m: int) -> None:
         self.n = m
-        resize_all([*self.trackers, self.associator, *self.selectors.values(), self.ego,
-                    self._read_ego, self.oracle], m)  # fmt: skip
+        stages = [*self.trackers, self.associator, *self.selectors.values(), self.ego,
+                  self._read_ego, self.oracle]  # fmt: skip
+        resize_all(stages if self._map is None else [*stages, self._map], m)
 
     def _free(self, freed: np.ndarray) -> None:
         """Forget the estimators' pairs ``freed`` (a mask over the pool; all inside the
@@ -257,6 +264,8 @@ class WorldPerception(PairState):
         self._free(self.pool.release(keys))
         for selector in self.selectors.values():
             selector.forget(egos)
+        if self._map is not None:
+            self._map.forget(egos)
         self.ego.reset(egos, wheel)
         self.oracle.reset(egos)
 
@@ -310,11 +319,24 @@ class WorldPerception(PairState):
         # what every method's path prediction reads of the objects: their tracks
         seen = (fused.object_id, *_track_view(fused.valid, fused.track, tracks[0].state,
                                               tracks[1].state))  # fmt: skip
+        road_path = None  # the map as the egos place it, where the source gives one
+        if self._map is not None and frame.road_path.shape[1]:
+            road_path = self._map.step(frame.road_path, dt)
         raw = {}
         for m, estimator in self.estimators.items():
             est = raw[m] = estimator.step(measurements, target, u, copy=False)
             estimates[m], truth_id[m] = self._select(
-                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active, dt, seen
+                m,
+                est,
+                fused,
+                tracks,
+                v_ego,
+                yaw,
+                frame.road_curvature,
+                active,
+                dt,
+                seen,
+                road_path,
             )
             cause = alert_cause(frame, truth_id[m], lead.leader_id)
             if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
@@ -337,12 +359,14 @@ class WorldPerception(PairState):
         detections = [s.detect(frame, self.world.conditions) for s in self.sensors]
         return accel, wheel, frame.ego_yaw_rate + noise, detections
 
-    def _select(self, method, est, fused, tracks, v_ego, yaw, curvature, active, dt, seen):
+    def _select(
+        self, method, est, fused, tracks, v_ego, yaw, curvature, active, dt, seen, road_path
+    ):
         """The selected object of each active ego under ``method``: its estimate (an
         :class:`~acc_fusion.fusion.base.Estimate` over the egos, ``valid`` where one is
         selected) and its true id (``est`` over the pool's pairs); ``dt`` [s] since the last
-        step, ``seen`` the objects as the path prediction reads them
-        (:meth:`InPathSelector.step`)."""
+        step, ``seen`` the objects as the path prediction reads them and ``road_path`` the
+        map's path as the egos place it, or ``None`` (:meth:`InPathSelector.step`)."""
         n, f = self.n, self.slots
         pair = self.pool.pair_of[: n * f].reshape(n, f)
         ids, x, ground = np.empty((n, f), np.int64), np.empty((n, f)), np.empty((n, f))
@@ -352,7 +376,7 @@ class WorldPerception(PairState):
         lateral, cov = fused.lateral, fused.lateral_cov
         sel = self.selectors[method].step(
             ids, x, lateral[..., 0], ground, confirmed, v_ego, yaw, curvature,
-            lateral[..., 1], cov[..., 0, 0], cov[..., 1, 1], dt, seen,
+            lateral[..., 1], cov[..., 0, 0], cov[..., 1, 1], dt, seen, road_path,
         )  # fmt: skip
         has = np.empty(n, dtype=bool)
         x_sel, p_sel = np.empty((n, *est.x.shape[1:])), np.empty((n, *est.p.shape[1:]))
@@ -463,7 +487,7 @@ def simulate_world(
     if source is None:
         s_source = np.random.SeedSequence(config.seed).spawn(1)[0]
         scene = SceneConfig(scene=config.world.scene, runs=config.runs, dt=config.dt)
-        source = SceneSource(scene, np.random.default_rng(s_source))
+        source = SceneSource(scene, np.random.default_rng(s_source), config.world.map_path)
     return simulate(
         config,
         source=source,

@@ -10,6 +10,7 @@ from acc_fusion.fusion.tracking.tracker import TrackerConfig
 from acc_fusion.sensors.suite2d import Sensors2DConfig
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.scenes import SceneConfig
+from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.warning.selection import SelectionConfig
 
 
@@ -40,3 +41,14 @@ class WorldConfig:
     def __post_init__(self) -> None:
         SceneConfig(scene=self.scene)  # the scene's name is checked there
         check_range("world.yaw_rate_std", self.yaw_rate_std, 0.0, 1.0)
+
+    @property
+    def map_path(self) -> bool:
+        """The selection reads the map's lanes ahead (``selection.path = "map"``): the truth
+        source must give them."""
+        return self.selection.path == "map"
+
+    def object_field(self) -> ObjectFieldConfig:
+        """The field SUMO's object truth gives these settings (the map's lanes ahead for the
+        ``"map"`` path)."""
+        return ObjectFieldConfig(map_path=self.map_path)

@@ -47,7 +47,6 @@ from acc_fusion.studies.crashes import CrashLog, HazardLog, chain
 from acc_fusion.truth.driver import DriverConfig
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoError
-from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.truth.sumo.source import SumoSource
 from acc_fusion.truth.sumo.world import SumoWorld
 
@@ -118,7 +117,7 @@ def _run(
     :class:`~acc_fusion.truth.sumo.world.SumoWorld`)."""
 
     config = replace(sumo_config, ssm=cross_check)
-    objects = ObjectFieldConfig() if world else None
+    objects = sim.world.object_field() if world else None
     background = sim.drive is None and not config.gui
     with BackgroundSumoSource(config, objects) if background else SumoSource(config) as source:
         history = sim.drive is not None and not warnings_on
@@ -140,7 +139,7 @@ def _run(
             run, how = replace(sim, dt=source.dt), {"progress": progress, "on_step": hook}
             if world:
                 result = simulate_world(
-                    run, source=SumoWorld(source), warnings_on=warnings_on, **how
+                    run, source=SumoWorld(source, objects), warnings_on=warnings_on, **how
                 )
             else:
                 result = simulate(run, source=source, warnings_on=warnings_on, **how)

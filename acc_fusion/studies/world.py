@@ -32,7 +32,6 @@ from acc_fusion.truth.openscenario.read import read_scenario
 from acc_fusion.truth.procedures import TrackSource
 from acc_fusion.truth.sumo.background import BackgroundSumoSource
 from acc_fusion.truth.sumo.config import SumoConfig
-from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.truth.sumo.world import SumoWorld
 
 #: The columns of :meth:`WorldStudy.scenes`.
@@ -217,7 +216,7 @@ def _sumo_world_run(sumo_config: SumoConfig, config: SimConfig, progress: bool):
     """One SUMO run of the 2-D pipeline, open loop, at SUMO's step; every method's summary.
     SUMO and the object frames run in a process of their own, ahead of the pipeline
     (:class:`~acc_fusion.truth.sumo.background.BackgroundSumoSource` with ``objects``)."""
-    with BackgroundSumoSource(sumo_config, objects=ObjectFieldConfig()) as source:
+    with BackgroundSumoSource(sumo_config, objects=config.world.object_field()) as source:
         run = replace(config, dt=source.dt)
         return simulate_world(run, source=SumoWorld(source), progress=progress).summaries
 

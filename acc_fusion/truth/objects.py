@@ -53,6 +53,12 @@ STATIONARY_KINDS = (ObjectKind.PARKED, ObjectKind.GANTRY, ObjectKind.BRIDGE,
 #: ``lane`` of an object that is on no lane (shoulder, roadside, overhead).
 OFF_ROAD = 99
 
+#: Longitudinal distances ahead of the ego [m] at which a source with lane geometry gives the
+#: ego lane's centreline along its route (:attr:`ObjectFrame.road_path`): every 10 m to 200 m,
+#: the field of a long-range radar (the map path's resolution is an assumption: on a 250 m
+#: radius a 10 m chord strays 5 cm from its arc).
+PATH_STATIONS = np.arange(0.0, 201.0, 10.0)
+
 
 _FLOAT_FIELDS = (
     "x", "y", "elevation", "vx", "vy", "speed", "accel", "heading",
@@ -117,6 +123,12 @@ class ObjectFrame:
             in the ego's lane — or ``-1``.
         lateral_speed: ``(E, M)`` the object's speed across its lane [m/s], left positive (a
             lane change); zeros when the source does not know it.
+        road_path: ``(E, len(PATH_STATIONS))`` the lateral position [m] in the ego frame of
+            the centreline of the ego's lane and the lanes it continues into along the ego's
+            route, at the longitudinal distances :data:`PATH_STATIONS` — the road ahead as a
+            map gives it, for the ``"map"`` path of :mod:`acc_fusion.warning.selection`;
+            NaN in the rows of egos on no lane; ``(E, 0)`` (the default, ``None``) when the
+            source gives no map.
     """
 
     t: float
@@ -143,6 +155,7 @@ class ObjectFrame:
     lane: np.ndarray
     lead: np.ndarray
     lateral_speed: np.ndarray = None  # type: ignore[assignment]
+    road_path: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         valid = np.asarray(self.valid)
@@ -179,12 +192,20 @@ class ObjectFrame:
             raise InputError("lead must name a valid object slot of its ego or be -1")
         object.__setattr__(self, "valid", valid)
         object.__setattr__(self, "lead", lead.astype(np.int64, copy=False))
+        path = np.zeros((e, 0)) if self.road_path is None else np.asarray(self.road_path, float)
+        if path.shape not in ((e, 0), (e, PATH_STATIONS.size)):
+            raise InputError(f"road_path must have shape ({e}, 0) or ({e}, {PATH_STATIONS.size}), "
+                             f"got {path.shape}")  # fmt: skip
+        object.__setattr__(self, "road_path", path)
 
     def head(self, k: int) -> ObjectFrame:
         """The frame of the first ``k`` egos (views of this frame's arrays, no checks)."""
-        if k == self.n_egos:
-            return self
-        arrays = {f.name: getattr(self, f.name)[:k] for f in fields(self) if f.name != "t"}
+        return self if k == self.n_egos else self.egos(0, k)
+
+    def egos(self, start: int, stop: int) -> ObjectFrame:
+        """The frame of the egos ``start`` to ``stop`` (views of this frame's arrays, no
+        checks)."""
+        arrays = {f.name: getattr(self, f.name)[start:stop] for f in fields(self) if f.name != "t"}
         return ObjectFrame.from_arrays(self.t, **arrays)
 
     @classmethod

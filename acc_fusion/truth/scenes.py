@@ -60,6 +60,7 @@ from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_choice, check_range
 from acc_fusion.truth.manoeuvre_params import IDM, LANE_WIDTH
 from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind
+from acc_fusion.truth.road import Road, RoadGeometry
 from acc_fusion.truth.speed_changes import SpeedChanges
 
 #: (length, width, height [m], rcs [dBsm], thermal contrast [K]) per kind; see the module
@@ -83,57 +84,10 @@ GUARDRAIL_SPACING = 25.0
 GUARDRAIL_OFFSET = -(LANE_WIDTH / 2 + 3.0)
 #: Lateral position of a car parked on the right hard shoulder [m].
 SHOULDER_OFFSET = -(LANE_WIDTH / 2 + 1.5)
-#: Grid step of the road geometry [m].
-_DS = 0.5
 #: Length and width of the ego (the subject vehicle) [m]: a vehicle's (:data:`SIGNATURES`).
 EGO_LENGTH, EGO_WIDTH = SIGNATURES[ObjectKind.VEHICLE][:2]
 #: The ego models of a :class:`Scene` and its rules for the in-path lead.
 EGO_MODELS, LEAD_RULES = ("idm", "cruise"), ("lane", "overlap")
-
-
-@dataclass(frozen=True)
-class Road:
-    """The ego lane's centreline.
-
-    Attributes:
-        curves: ``(start s [m], plan curvature [1/m])`` pieces in increasing ``s``; the road
-            is straight before the first; positive curves left.
-        vertical: ``(start s, end s, vertical curvature [1/m])`` pieces; negative is a crest.
-        length: road length [m] from ``s = -100``.
-    """
-
-    curves: tuple[tuple[float, float], ...] = ()
-    vertical: tuple[tuple[float, float, float], ...] = ()
-    length: float = 1500.0
-
-
-class _Geometry:
-    """The road sampled every ``_DS`` metres: position, heading, height and grade."""
-
-    def __init__(self, road: Road) -> None:
-        s = np.arange(-100.0, road.length, _DS)
-        kappa = np.zeros_like(s)
-        for start, k in road.curves:
-            kappa[s >= start] = k
-        kv = np.zeros_like(s)
-        for start, end, k in road.vertical:
-            kv[(s >= start) & (s < end)] = k
-        theta = np.concatenate([[0.0], np.cumsum(kappa[:-1]) * _DS])
-        self.s, self.kappa, self.theta = s, kappa, theta
-        self.x = np.concatenate([[0.0], np.cumsum(np.cos(theta[:-1])) * _DS])
-        self.y = np.concatenate([[0.0], np.cumsum(np.sin(theta[:-1])) * _DS])
-        grade = np.concatenate([[0.0], np.cumsum(kv[:-1]) * _DS])
-        self.grade = grade
-        self.z = np.concatenate([[0.0], np.cumsum(grade[:-1]) * _DS])
-
-    def at(self, name: str, s: np.ndarray) -> np.ndarray:
-        """Geometry quantity ``name`` at arc lengths ``s`` (any shape), linearly interpolated."""
-        return np.interp(s, self.s, getattr(self, name))
-
-    def point(self, s: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World position of ``(s, d)``."""
-        th = self.at("theta", s)
-        return self.at("x", s) - d * np.sin(th), self.at("y", s) + d * np.cos(th)
 
 
 @dataclass
@@ -371,13 +325,22 @@ class SceneSource:
     moves with it).  ``active``: the runs going on; all, unless a subclass ends runs at
     ``_end_t`` (:class:`acc_fusion.truth.procedures.TrackSource`)."""
 
-    def __init__(self, config: SceneConfig, seed: int | np.random.Generator | None = None):
+    #: Give each frame the road ahead as a map would (:attr:`ObjectFrame.road_path`).
+    map_path = False
+
+    def __init__(
+        self,
+        config: SceneConfig,
+        seed: int | np.random.Generator | None = None,
+        map_path: bool = False,
+    ):
         self.config: SceneConfig | None = config
+        self.map_path = bool(map_path)
         self._setup(SCENES[config.scene](config.runs, np.random.default_rng(seed)), config.dt)
 
     def _setup(self, scene: Scene, dt: float) -> None:
         self.scene, self.dt = scene, dt
-        self._geo = _Geometry(scene.road)
+        self._geo = RoadGeometry(scene.road)
         n = scene.ego_speed.shape[0]
         self.t = 0.0
         self._s, self._a = np.zeros(n), np.zeros(n)  # ego front bumper, acceleration
@@ -459,6 +422,7 @@ class SceneSource:
             speed=np.broadcast_to(ground, valid.shape).copy(), accel=a, heading=psi - th_e,
             length=length, width=width, height=height, rcs=rcs, thermal_contrast=contrast,
             lane=lane, lead=lead, lateral_speed=d_rate,
+            road_path=self._geo.lane_ahead(self._s, th_e[:, 0]) if self.map_path else None,
         )  # fmt: skip
 
     def advance(self, ego_brake: np.ndarray | None = None) -> None:

@@ -243,3 +243,20 @@ def path_offset(theta, cov, x, y, y_var):  # pragma: no cover - compiled
     off = y - (j1 * theta[1] + j2 * theta[2])
     var = y_var + j1 * j1 * cov[1, 1] + 2.0 * j1 * j2 * cov[1, 2] + j2 * j2 * cov[2, 2]
     return off, var
+
+
+@njit(cache=True)
+def map_offset(row, step, x, y, y_var, lat_var, heading_var, kappa):  # pragma: no cover - compiled
+    r"""The offset [m] of an object at ``(x, y)`` of lateral variance ``y_var`` from the map's
+    path ``row``, the path's lateral position every ``step`` metres from the ego (linear
+    between, along the last interval beyond), and its variance :math:`\sigma_y^2 +
+    \sigma_{e_y}^2 + x^2 \sigma_{e_\psi}^2` (``lat_var``, ``heading_var``: the
+    localisation's, :mod:`acc_fusion.sensors.localization`), as a pair.  Where the row gives
+    no path at ``x`` (NaN: the ego on no lane, or a loop the path does not reach), the
+    circle of the lane's curvature ``kappa`` at the ego, as the ``"lane"`` path."""
+    u = max(x, 0.0) / step
+    i = min(int(u), row.size - 2)
+    yp = row[i] + (u - i) * (row[i + 1] - row[i])
+    if not math.isfinite(yp):
+        return y - 0.5 * kappa * x * x, y_var
+    return y - yp, y_var + lat_var + x * x * heading_var

@@ -29,18 +29,26 @@ Path prediction (``path``)
     yaw rate, the headings of the moving vehicles ahead and, where a map gives it, the
     lane's curvature, with their covariance (:mod:`acc_fusion.warning.path`):
     :math:`y_p(x) = \tfrac12 c_0 x^2 + \tfrac16 c_1 x^3`, whose uncertainty widens with
-    distance.
+    distance;
+    ``"map"``: the centreline of the ego's lane and of the lanes it continues into along its
+    route, as a lane-level map gives it (:attr:`acc_fusion.truth.objects.ObjectFrame.road_path`:
+    SUMO's sources and the scripted scenes), placed with the error of the ego's localisation
+    on the map (:mod:`acc_fusion.sensors.localization`): the offset's variance is the track's plus
+    :math:`\sigma_{e_y}^2 + x^2\sigma_{e_\psi}^2` (:func:`acc_fusion.warning.path.map_offset`).
+    It follows the lanes that split from or merge into the ego's, which no curvature at
+    the ego, measured or estimated, describes.
 
 Corridor (``half_width``)
     An object is in path when :math:`|y - y_p(x)| \le w/2`; the default :math:`w/2` = 1.75 m
     is half a 3.5 m lane (an assumption: ISO 15623:2013, the FVCWS standard, asks the system to
     discriminate targets in the subject vehicle's lane without fixing a corridor width).
-    With the ``"fused"`` path the offset is uncertain (the path's covariance and the track's
-    lateral variance): an object is in path when its in-path probability
-    :math:`P_\text{in}` (:func:`acc_fusion.warning.path.in_path_probability`) reaches
-    ``enter_probability``; with ``keep_probability`` below it, the object selected at the
-    previous step stays in path down to that probability (hysteresis, off by default: it
-    kept a cutting-out lead selected too long, see :mod:`acc_fusion.warning.path`'s theory
+    With the ``"fused"`` and ``"map"`` paths the offset is uncertain (the path's covariance
+    or the localisation's, and the track's lateral variance): an object is in path when its
+    in-path probability :math:`P_\text{in}`
+    (:func:`acc_fusion.warning.path.in_path_probability`) reaches ``enter_probability``;
+    with ``keep_probability`` below it, the object selected at the previous step stays in
+    path down to that probability (hysteresis, off by default: it kept a cutting-out lead
+    selected too long, see :mod:`acc_fusion.warning.path`'s theory
     page; both thresholds are assumptions).
 
 Stationary objects (``stationary``)
@@ -73,13 +81,15 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import InputError
 from acc_fusion.core.slots import PairState
 from acc_fusion.core.validation import broadcast, check_choice, check_interval, check_range
+from acc_fusion.truth.objects import PATH_STATIONS
 from acc_fusion.warning import path as fp
 
 #: Path models (see the module docstring).
-PATHS = ("straight", "yaw_rate", "lane", "fused")
+PATHS = ("straight", "yaw_rate", "lane", "fused", "map")
 #: Policies for stationary objects.
 STATIONARY_POLICIES = ("all", "confirmed", "ignore")
 #: The stationary policies as the compiled selection takes them.
@@ -93,7 +103,7 @@ class SelectionConfig:
     r"""In-path selection settings (see the module docstring for the sources).
 
     Attributes:
-        path: ``"straight"``, ``"yaw_rate"``, ``"lane"`` or ``"fused"`` (default).
+        path: ``"straight"``, ``"yaw_rate"``, ``"lane"``, ``"fused"`` (default) or ``"map"``.
         half_width: half the in-path corridor [m]; 1.75 (half a 3.5 m lane; assumption).
         enter_probability, keep_probability: in-path probability at which an object becomes
             selectable, and at which the object selected at the last step stays so (``"fused"``
@@ -117,6 +127,11 @@ class SelectionConfig:
         steer_curvature_std: std of the ego's path curvature about the road's [1/m]; 1e-4 (0.1
             m/s² of lateral acceleration at 30 m/s; assumption).
         map_curvature_std: std of a map's lane curvature at the ego [1/m]; 0 (default): no map.
+        map_lateral_std, map_heading_std: std of the ego's lateral position [m] and heading
+            [rad] on the map (the ``"map"`` path); 0.10 and 0.0045 (the 95 % accuracies of 0.20
+            m and 0.51° that Reid et al., SAE Int. J. CAV 2(3), 2019, require of an automated
+            vehicle's localisation on freeways, read as 2σ).
+        map_error_time: correlation time of those errors [s]; 2.0 (assumption).
         trail_range: nearest and farthest range [m] of the vehicles whose headings are used;
             (5, 150) (the field of the sensors; assumption).
         outlier_gate: normalised innovation [standard deviations] beyond which a vehicle's
@@ -148,6 +163,9 @@ class SelectionConfig:
     curvature_rate_walk: float = 3e-6
     steer_curvature_std: float = 1e-4
     map_curvature_std: float = 0.0
+    map_lateral_std: float = 0.10
+    map_heading_std: float = 0.0045
+    map_error_time: float = 2.0
     trail_range: tuple[float, float] = (5.0, 150.0)
     outlier_gate: float = 3.0
     rail_band: tuple[float, float] = (2.5, 8.0)
@@ -171,6 +189,9 @@ class SelectionConfig:
                      "curvature_walk", "curvature_rate_walk", "steer_curvature_std"):  # fmt: skip
             check_range(f"selection.{name}", getattr(self, name), 0.0, 1.0, lo_open=True)
         check_range("selection.map_curvature_std", self.map_curvature_std, 0.0, 1.0)
+        check_range("selection.map_lateral_std", self.map_lateral_std, 0.0, 10.0)
+        check_range("selection.map_heading_std", self.map_heading_std, 0.0, 1.0)
+        check_range("selection.map_error_time", self.map_error_time, 0.0, 3600.0, lo_open=True)
         check_interval("selection.trail_range", self.trail_range, lo_open=False)
         check_range("selection.outlier_gate", self.outlier_gate, 0.0, lo_open=True)
         check_interval("selection.rail_band", self.rail_band, lo_open=False)
@@ -202,7 +223,7 @@ def path_curvature(
     models of constant curvature (``"fused"`` fits it per step: :class:`InPathSelector`)."""
     if config.path == "straight":
         return np.zeros_like(speed)
-    if config.path == "lane":
+    if config.path in ("lane", "map"):  # "map": where the map gives no path
         return np.array(road_curvature, dtype=float)
     return np.where(speed >= config.min_speed, yaw_rate / np.maximum(speed, config.min_speed), 0.0)
 
@@ -232,6 +253,8 @@ class InPathSelector(PairState):
         self.config = config
         self._fused = config.path == "fused"
         self._prm = config.path_parameters()
+        self._map_prm = np.array([PATH_STATIONS[1] - PATH_STATIONS[0], config.map_lateral_std**2,
+                                  config.map_heading_std**2])  # fmt: skip
         self._gyro_var = float(yaw_rate_std) ** 2
         self._ids = np.full((n_egos, n_slots), -1, dtype=np.int64)
         self._vouched = np.zeros((n_egos, n_slots), dtype=bool)
@@ -269,6 +292,7 @@ class InPathSelector(PairState):
         vy_var: np.ndarray | float = 0.0,
         dt: float = 0.1,
         seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+        road_path: np.ndarray | None = None,
     ) -> np.ndarray:
         """The selected slot of each ego, ``(E,)`` int64, ``-1`` where none is in path.
 
@@ -288,6 +312,12 @@ class InPathSelector(PairState):
                 not what the selection judges them by (default: ``object_id``, ``x`` and
                 ``ground_speed - speed``) — the world's sensors' tracks of every object,
                 where the selection sees one method's estimates of the objects it estimates.
+            road_path: ``(E, len(PATH_STATIONS))`` the map's path of each ego as the ego
+                places it (:class:`~acc_fusion.sensors.localization.MapLocalization`), for
+                ``path="map"``.
+
+        Raises:
+            InputError: a wrong shape, or ``path="map"`` without ``road_path``.
         """
         cfg = self.config
         object_id = np.asarray(object_id)
@@ -305,6 +335,14 @@ class InPathSelector(PairState):
         road_ids = broadcast("seen object_id", seen[0], (n, f), np.int64)
         road_x, road_vx = (broadcast(f"seen {name}", a, (n, f), float)
                            for name, a in (("x", seen[1]), ("vx", seen[2])))  # fmt: skip
+        mapped = cfg.path == "map"
+        if mapped and road_path is None:
+            raise InputError(
+                "world.selection.path = 'map' needs the lanes ahead from a map, which SUMO "
+                "and the scripted scenes give; choose another path for this source"
+            )
+        road_path = check_array("road_path", road_path, (n, PATH_STATIONS.size), finite=False) \
+            if mapped else np.zeros((n, 0))  # fmt: skip
         kappa = np.zeros(n) if self._fused else path_curvature(cfg, *ego.values())
         self.curvature = broadcast("the path curvature", kappa, (n,), float)
         self.curvature_rate = np.zeros(n)
@@ -314,8 +352,8 @@ class InPathSelector(PairState):
         _select(
             object_id.astype(np.int64, copy=False), *grid.values(), *ego.values(), road_ids,
             road_x, road_vx, self._fused, float(dt), self._gyro_var, self._prm, self._theta,
-            self._cov, cfg.half_width, cfg.enter_probability, cfg.keep_probability,
-            cfg.stationary_speed, cfg.oncoming,
+            self._cov, mapped, road_path, self._map_prm, cfg.half_width, cfg.enter_probability,
+            cfg.keep_probability, cfg.stationary_speed, cfg.oncoming,
             STATIONARY_POLICIES.index(cfg.stationary), self._ids, self._vouched, self._last,
             self.curvature, self.curvature_rate, self.offset, self.probability, self.in_path,
             self.selected,
@@ -326,14 +364,17 @@ class InPathSelector(PairState):
 @njit(cache=True)
 def _select(
     object_id, x, y, ground, confirmed, vy, y_var, vy_var, speed, yaw, road, road_ids, road_x,
-    road_vx, fused, dt, gyro_var, prm, road_theta, road_cov, half_width, enter, keep, still,
+    road_vx, fused, dt, gyro_var, prm, road_theta, road_cov, mapped, road_path, map_prm,
+    half_width, enter, keep, still,
     oncoming, policy, ids, vouched, last, kappa, rate, offset, prob, in_path, selected,
 ):  # pragma: no cover - compiled  # fmt: skip
     r""":meth:`InPathSelector.step` of every ego, one pass over its slots: the memory ``ids``,
     ``vouched`` and ``last`` in place; with ``fused``, each ego's road filter ``road_theta``,
     ``road_cov`` one step on (:func:`~acc_fusion.warning.path.road_step`, reading the objects
     ``road_ids``, ``road_x``, ``road_vx``), its curvature and rate into ``kappa`` and
-    ``rate`` (else ``kappa`` is given, the offset certain);
+    ``rate`` (else ``kappa`` is given, the offset certain; with ``mapped`` the offset is
+    from each ego's ``road_path`` with the localisation's variances ``map_prm[1:]``, its
+    stations every ``map_prm[0]`` metres, ``kappa`` where it gives none);
     ``offset`` :math:`= y - y_p(x)`, ``prob`` (0 for an object the stationary, oncoming
     and behind-the-ego rules exclude), ``in_path`` and ``selected`` (the nearest
     in-path slot, the first of equals; -1 for none) written.  ``policy``: the index of the
@@ -365,6 +406,9 @@ def _select(
             xk = x[e, k]
             if fused:
                 off, var = fp.path_offset(road_theta[e], road_cov[e], xk, y[e, k], y_var[e, k])
+            elif mapped:
+                off, var = fp.map_offset(road_path[e], map_prm[0], xk, y[e, k], y_var[e, k],
+                                         map_prm[1], map_prm[2], kappa[e])  # fmt: skip
             else:
                 off, var = y[e, k] - 0.5 * kappa[e] * xk * xk, 0.0
             offset[e, k] = off

@@ -81,6 +81,7 @@ from acc_fusion.core.arrays import check_array
 from acc_fusion.core.errors import AccFusionError, ConfigError
 from acc_fusion.core.memory import release_free_heap
 from acc_fusion.truth.frame import SlotSource, TruthFrame
+from acc_fusion.truth.objects import PATH_STATIONS
 from acc_fusion.truth.sumo.config import SumoConfig, SumoError
 from acc_fusion.truth.sumo.frames import FrameMaker
 from acc_fusion.truth.sumo.object_arrays import ObjectArrays, ObjectFrames
@@ -126,6 +127,10 @@ OBJECTS_NICE = 19
 CLOSE_TIMEOUT = 30.0
 
 
+#: Stations of a map path (:data:`~acc_fusion.truth.objects.PATH_STATIONS`).
+STATIONS = PATH_STATIONS.size
+
+
 def _ring_bytes(n_pairs: int, objects: bool = False) -> int:
     """Bytes of the ring of a source of ``n_pairs`` slots (see :data:`RING_BYTES`), with
     room for :data:`OBJECT_RING_FRAMES` frames of every slot with :data:`OBJECT_RING_SLOTS`
@@ -133,7 +138,7 @@ def _ring_bytes(n_pairs: int, objects: bool = False) -> int:
     frame = _frame_bytes(n_pairs, n_pairs)
     if not objects:
         return max(RING_BYTES, 16 * frame)
-    return OBJECT_RING_FRAMES * (frame + _objects_bytes(n_pairs, OBJECT_RING_SLOTS))
+    return OBJECT_RING_FRAMES * (frame + _objects_bytes(n_pairs, OBJECT_RING_SLOTS, STATIONS))
 
 
 #: What the child's reads and writes on the socket raise once the parent has gone.
@@ -466,10 +471,11 @@ class ReceivedObjects(ObjectFrames):
 
     def __init__(self, source: BackgroundSumoSource, config: ObjectFieldConfig) -> None:
         self._source, self.config = source, config
+        self._stations = STATIONS if config.map_path else 0
 
     def _current(self) -> tuple:
         return self._source.frame(), self._source._active
 
     def _arrays(self, truth, n: int) -> ObjectArrays:
         src = self._source
-        return src._ring.read_objects(*src._objects_at, n)
+        return src._ring.read_objects(*src._objects_at, n, self._stations)

@@ -92,6 +92,7 @@ import numpy as np
 from acc_fusion.core.errors import ConfigError
 from acc_fusion.core.validation import check_range
 from acc_fusion.truth.objects import ObjectKind
+from acc_fusion.truth.sumo.lane_path import RoutePaths
 from acc_fusion.truth.sumo.object_arrays import (
     ObjectArrays,
     ObjectFrames,
@@ -148,15 +149,21 @@ class ObjectFieldConfig:
         ahead: farthest ``x`` of an object's nearest face [m]; 200 (long-range radar).
         lateral: largest ``|y|`` [m]; 15 (four 3.5 m lanes either side).
         roadside: the stationary objects placed along the network, a :class:`RoadsideConfig`.
+        map_path: give each ego's lane ahead along its route as a map would
+            (:attr:`~acc_fusion.truth.objects.ObjectFrame.road_path`,
+            :mod:`~acc_fusion.truth.sumo.lane_path`); False.
     """
 
     ahead: float = 200.0
     lateral: float = 15.0
     roadside: RoadsideConfig = RoadsideConfig()
+    map_path: bool = False
 
     def __post_init__(self) -> None:
         check_range("field.ahead", self.ahead, 0.0, 5000.0, lo_open=True)
         check_range("field.lateral", self.lateral, 0.0, 1000.0, lo_open=True)
+        if not isinstance(self.map_path, bool):
+            raise ConfigError(f"field.map_path must be true or false, got {self.map_path!r}")
         if not isinstance(self.roadside, RoadsideConfig):
             raise ConfigError(
                 f"field.roadside must be a RoadsideConfig, got {type(self.roadside).__name__}"
@@ -197,6 +204,7 @@ class SumoObjects(ObjectFrames):
         api = self._api = source._api
         self.lanes = LaneTable.read(api)
         self.roadside = place_roadside(self.lanes, config.roadside)
+        self._paths = RoutePaths(api, self.lanes) if config.map_path else None
         veh = api.vehicle
         self._get = {name: raw_function(api, f"vehicle_{name}", getattr(veh, name))
                      for name in _GETTERS}  # fmt: skip
@@ -350,7 +358,7 @@ class SumoObjects(ObjectFrames):
         has = ego >= 0
         heading, ego_id = np.zeros(n), np.full(n, -1, np.int64)
         heading[has], ego_id[has] = obj["heading"][ego[has]], obj["object_id"][ego[has]]
-        curvature, lane_width = self._ego_lane(ego, veh)
+        curvature, lane_width, path = self._ego_lane(ego, veh, src.vehicle_ids[:n], ego_id)
         keys, order = _grid(obj["x"], obj["y"])
         cos_h, sin_h = np.cos(obj["heading"]), np.sin(obj["heading"])
         counts = np.zeros(n, dtype=np.int64)
@@ -366,10 +374,14 @@ class SumoObjects(ObjectFrames):
               lane_width, cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
               *out)  # fmt: skip
         yaw_rate = self._yaw_rate(truth.t, heading, ego_id, has)
-        return ObjectArrays(*out, yaw_rate, curvature)
+        return ObjectArrays(*out, yaw_rate, curvature, path)
 
-    def _ego_lane(self, ego: np.ndarray, veh: dict) -> tuple[np.ndarray, np.ndarray]:
-        """Road curvature [1/m] and lane width [m] at each ego (0 and 1 for empty slots)."""
+    def _ego_lane(
+        self, ego: np.ndarray, veh: dict, vids: list[str | None], ego_id: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Road curvature [1/m] and lane width [m] at each ego (0 and 1 for empty slots), and
+        the egos' map paths (``(E, 0)`` without ``map_path``) given their vehicle ids
+        ``vids`` and object ids ``ego_id``."""
         lanes, has = self.lanes, ego >= 0
         curvature, width = np.zeros(len(ego)), np.ones(len(ego))
         rows = ego[has]  # vehicles come first among the objects
@@ -379,7 +391,18 @@ class SumoObjects(ObjectFrames):
         pos = veh["lane_pos"][rows]
         curvature[has] = curvature_at(lane, pos, lanes.start, lanes.vs, lanes.vh)
         width[has] = np.where(on_net, lanes.width[np.maximum(lane, 0)], 1.0)
-        return curvature, width
+        if self._paths is None:
+            return curvature, width, np.zeros((len(ego), 0))
+        every = np.full(len(ego), -1, np.int64)
+        every[has] = lane
+        front, at = np.zeros((3, len(ego))), np.zeros(len(ego))
+        heading = veh["heading"][rows]
+        half = veh["length"][rows] / 2
+        front[:, has] = (veh["x"][rows] + half * np.cos(heading),
+                         veh["y"][rows] + half * np.sin(heading), heading)  # fmt: skip
+        at[has] = pos
+        ids = [v if h else None for v, h in zip(vids, has.tolist(), strict=True)]
+        return curvature, width, self._paths.paths(ids, ego_id, every, at, *front)
 
     def _yaw_rate(self, t: float, heading: np.ndarray, ids: np.ndarray, has: np.ndarray):
         """``(E,)`` heading change per second since the last frame of the same vehicle (the

@@ -37,12 +37,13 @@ OUTBOX_BATCH = 8
 _FLAG_ROWS = ("active", "reassigned", "collided", "inattentive")
 
 
-def _objects_bytes(k: int, m: int) -> int:
-    """Bytes of the object arrays of ``k`` egos with ``m`` object slots each
-    (:class:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays`, written after a frame's
-    arrays): the float fields, object ids and lanes (8 bytes an entry), the lead slots, yaw
-    rates and curvatures (8 bytes an ego), then the kinds (1 byte an entry), rounded up to 8."""
-    return 8 * ((len(OBJECT_FLOATS) + 2) * k * m + 3 * k) + -(-(k * m) // 8) * 8
+def _objects_bytes(k: int, m: int, j: int = 0) -> int:
+    """Bytes of the object arrays of ``k`` egos with ``m`` object slots and ``j`` map-path
+    stations each (:class:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays`, written after
+    a frame's arrays): the float fields, object ids and lanes (8 bytes an entry), the lead
+    slots, yaw rates and curvatures (8 bytes an ego), the map paths (8 bytes a station), then
+    the kinds (1 byte an entry), rounded up to 8."""
+    return 8 * ((len(OBJECT_FLOATS) + 2) * k * m + (3 + j) * k) + -(-(k * m) // 8) * 8
 
 
 def _frame_bytes(k: int, m: int) -> int:
@@ -103,17 +104,17 @@ class _FrameRing:
 
     def write_objects(self, position: int, arrays: ObjectArrays) -> None:
         """Write an object frame's arrays at ``position`` (:func:`_objects_bytes`)."""
-        for room, values in zip(self._object_views(position, *arrays.object_id.shape), arrays,
-                                strict=True):  # fmt: skip
+        views = self._object_views(position, *arrays.object_id.shape, arrays.path.shape[1])
+        for room, values in zip(views, arrays, strict=True):
             room[...] = values
 
-    def read_objects(self, position: int, k: int, m: int, n: int) -> ObjectArrays:
-        """A copy of the object arrays of ``k`` egos and ``m`` object slots written at
-        ``position``, for the first ``n`` egos (those after ``k`` empty:
+    def read_objects(self, position: int, k: int, m: int, n: int, j: int = 0) -> ObjectArrays:
+        """A copy of the object arrays of ``k`` egos, ``m`` object slots and ``j`` map-path
+        stations written at ``position``, for the first ``n`` egos (those after ``k`` empty:
         :meth:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays.resized`)."""
-        return self._object_views(position, k, m).resized(n)
+        return self._object_views(position, k, m, j).resized(n)
 
-    def _object_views(self, position: int, k: int, m: int) -> ObjectArrays:
+    def _object_views(self, position: int, k: int, m: int, j: int) -> ObjectArrays:
         """Views of the ring's memory holding the object arrays at ``position``, in the
         order of :func:`_objects_bytes`."""
         floats, ints = self._views[:2]
@@ -125,8 +126,10 @@ class _FrameRing:
         lead, yaw_rate, curvature = ints[at : at + k], *(floats[at + i * k : at + (i + 1) * k]
                                                           for i in (1, 2))  # fmt: skip
         at += 3 * k
+        path = floats[at : at + k * j].reshape(k, j)
+        at += k * j
         kind = self._kinds[8 * at : 8 * at + km].reshape(k, m)
-        return ObjectArrays(rows, object_id, kind, lane, lead, yaw_rate, curvature)
+        return ObjectArrays(rows, object_id, kind, lane, lead, yaw_rate, curvature, path)
 
 
 @njit(cache=True)
@@ -200,7 +203,11 @@ class _RingWriter:
             SumoError: the frame takes more than a quarter of the ring.
         """
         nbytes = _frame_bytes(k, m)
-        total = nbytes if objects is None else nbytes + _objects_bytes(*objects.object_id.shape)
+        total = (
+            nbytes
+            if objects is None
+            else nbytes + _objects_bytes(*objects.object_id.shape, objects.path.shape[1])
+        )
         if total > self._ring.size // 4:  # the parent could not return the room it needs
             slots = "" if objects is None else f", {objects.object_id.shape[1]} object slots an ego"
             raise SumoError(

@@ -1,0 +1,184 @@
+r"""The road ahead as a map gives it: the centreline of each ego's lane and of the lanes it
+continues into along its route, in the ego frame (:attr:`ObjectFrame.road_path
+<acc_fusion.truth.objects.ObjectFrame.road_path>`), for the ``"map"`` path of
+:mod:`acc_fusion.warning.selection`.
+
+The lanes ahead
+    From the ego's lane, the lane sequence follows SUMO's links (libsumo ``lane.getLinks``,
+    read once for every lane): from a lane inside a junction its one link; from a lane of an
+    edge, the link into the next edge of the vehicle's route (``vehicle.getRoute``, read once
+    per vehicle), through the junction's internal lane.  Where the ego's lane has no link into
+    the next edge (the vehicle must change lanes first) or the route ends, the sequence ends,
+    and the path beyond continues along the last segment's direction.  The sequence covers
+    :data:`REACH` metres past the ego and is made again only when the ego's lane changes.
+
+In the ego frame
+    The vertices of the sequence's shapes from the ego's lane position on, :math:`q_i`, are
+    taken into the ego frame (origin at the front bumper :math:`p_e`, :math:`x` along the
+    heading :math:`u_e`, :math:`y` along :math:`n_e`): :math:`x_i = (q_i - p_e)\cdot u_e,\ y_i
+    = (q_i - p_e)\cdot n_e`, and the path's lateral position at each station :math:`X_j` of
+    :data:`~acc_fusion.truth.objects.PATH_STATIONS` is the linear interpolation on the first
+    segment whose :math:`x` crosses :math:`X_j` going forward.  Where the path turns back
+    (a loop ramp tighter than the field) the stations it no longer reaches are NaN, and so
+    is the whole row of an ego on no lane.  SUMO's lane-based vehicles drive on their lane's
+    centreline, so the path starts at :math:`y = 0`.
+
+This is the ground truth of the map; the localisation error of an ego that matches itself to
+the map is added by the pipeline (:class:`~acc_fusion.warning.selection.SelectionConfig`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from acc_fusion.truth.objects import PATH_STATIONS
+from acc_fusion.truth.sumo.roadside import LaneTable
+
+#: How far past the ego the lane sequence reaches [m]: the last station of
+#: :data:`~acc_fusion.truth.objects.PATH_STATIONS` and a margin for the path's bends.
+REACH = float(PATH_STATIONS[-1]) + 50.0
+
+
+class RoutePaths:
+    """The map path of the egos of a running SUMO simulation (module docstring).
+
+    Args:
+        api: libsumo (or TraCI) with the simulation running.
+        lanes: its :class:`~acc_fusion.truth.sumo.roadside.LaneTable`.
+    """
+
+    def __init__(self, api: Any, lanes: LaneTable) -> None:
+        self._api, self._lanes = api, lanes
+        names = [f"{e}_{i}" for e, n in zip(lanes.edge_ids, lanes.n_lanes.tolist(), strict=True)
+                 for i in range(n)]  # fmt: skip
+        index = {name: g for g, name in enumerate(names)}
+        self._lane_edge = np.repeat(np.arange(len(lanes.edge_ids)), lanes.n_lanes).tolist()
+        self._length = [float(lanes.vs[lanes.start[g + 1] - 1]) for g in range(len(names))]
+        # per lane: (next lane, the junction's lane on the way or -1)
+        self._links = [
+            [(index[to], index.get(via, -1)) for to, *_, via, _, _, _ in api.lane.getLinks(name)
+             if to in index]
+            for name in names
+        ]  # fmt: skip
+        self._routes: dict[int, list[int]] = {}  # by object id: the route's edge rows
+        self._held: dict[int, tuple[int, np.ndarray]] = {}  # by object id: (lane, its lanes)
+
+    def _route(self, oid: int, vid: str) -> list[int]:
+        route = self._routes.get(oid)
+        if route is None:
+            code = self._lanes.edge_code
+            route = self._routes[oid] = [code.get(e, -1) for e in self._api.vehicle.getRoute(vid)]
+        return route
+
+    def _sequence(self, lane: int, route: list[int]) -> np.ndarray:
+        """The global lanes from ``lane`` on along ``route`` (module docstring), until they
+        reach :data:`REACH` past the start of ``lane``."""
+        internal, edge_of = self._lanes.internal, self._lane_edge
+        at = route.index(edge_of[lane]) if edge_of[lane] in route else -1  # the lane's edge
+        out, length = [lane], self._length[lane]
+        while length < REACH:
+            links = self._links[lane]
+            if not internal[edge_of[lane]]:
+                if at < 0 or at + 1 >= len(route):
+                    break
+                links = [link for link in links if edge_of[link[0]] == route[at + 1]]
+            if not links:
+                break
+            lane, via = links[0]
+            for g in (via, lane) if via >= 0 else (lane,):
+                out.append(g)
+                length += self._length[g]
+            edge = edge_of[lane]
+            if not internal[edge]:
+                if 0 <= at < len(route) - 1 and route[at + 1] == edge:
+                    at += 1
+                else:
+                    at = route.index(edge) if edge in route else -1
+        return np.asarray(out, dtype=np.int64)
+
+    def paths(
+        self,
+        ids: list[str],
+        oid: np.ndarray,
+        lane: np.ndarray,
+        pos: np.ndarray,
+        front_x: np.ndarray,
+        front_y: np.ndarray,
+        heading: np.ndarray,
+    ) -> np.ndarray:
+        """``(E, len(PATH_STATIONS))`` the map path of each ego (module docstring): ``ids``
+        the egos' SUMO vehicle ids (``None`` for an empty slot), ``oid`` their object ids,
+        ``lane`` their global lanes (-1: on none), ``pos`` their lane positions, ``front_x``,
+        ``front_y`` their front bumpers in the network frame [m] and ``heading`` [rad]."""
+        n = len(ids)
+        sequences = []
+        for e in range(n):
+            g = int(lane[e])
+            if ids[e] is None or g < 0:
+                sequences.append(np.zeros(0, np.int64))
+                continue
+            o = int(oid[e])
+            held = self._held.get(o)
+            if held is None or held[0] != g:
+                held = self._held[o] = (g, self._sequence(g, self._route(o, ids[e])))
+            sequences.append(held[1])
+        counts = np.array([s.size for s in sequences], dtype=np.int64)
+        flat = np.concatenate(sequences) if n else np.zeros(0, np.int64)
+        out = np.full((n, PATH_STATIONS.size), np.nan)
+        lanes = self._lanes
+        _sample(flat, counts, pos, front_x, front_y, heading, lanes.start, lanes.vx, lanes.vy,
+                lanes.vs, PATH_STATIONS, out)  # fmt: skip
+        return out
+
+
+@njit(cache=True)
+def _sample(
+    flat, counts, pos, px, py, heading, start, vx, vy, vs, stations, out
+):  # pragma: no cover - compiled  # noqa: E501
+    """Write each ego's path at ``stations`` into ``out (E, J)`` (module docstring): its lanes
+    ``flat[counts[:e].sum():][:counts[e]]``, their vertices from lane position ``pos[e]`` on
+    the first, in the frame of the front bumper ``(px, py)`` and ``heading``."""
+    first = 0
+    for e in range(counts.size):
+        k = counts[e]
+        c, s = np.cos(heading[e]), np.sin(heading[e])
+        j, have = 0, False
+        x0, y0, prev_x, prev_y = 0.0, 0.0, -1.0, 0.0
+        for i in range(first, first + k):
+            g = flat[i]
+            a, b = start[g], start[g + 1]
+            for v in range(a, b):
+                qx, qy = vx[v], vy[v]
+                if i == first and not have and v < b - 1:  # the ego's own point on its lane
+                    if vs[v + 1] <= pos[e]:
+                        continue  # a segment behind the ego
+                    u = 0.0 if vs[v + 1] == vs[v] else (pos[e] - vs[v]) / (vs[v + 1] - vs[v])
+                    u = min(max(u, 0.0), 1.0)
+                    qx, qy = vx[v] + u * (vx[v + 1] - vx[v]), vy[v] + u * (vy[v + 1] - vy[v])
+                dx, dy = qx - px[e], qy - py[e]
+                x1, y1 = dx * c + dy * s, -dx * s + dy * c
+                if not have:
+                    have, x0, y0, prev_x, prev_y = True, x1, y1, x1 - 1.0, y1
+                    continue
+                if x1 < x0:  # turning back: the stations left are not reached
+                    j = stations.size
+                while j < stations.size and stations[j] <= x1:
+                    if stations[j] < x0:  # behind the ego's own point
+                        out[e, j] = y0
+                    elif x1 > x0:
+                        out[e, j] = y0 + (stations[j] - x0) * (y1 - y0) / (x1 - x0)
+                    else:
+                        out[e, j] = y1
+                    j += 1
+                if x1 > x0:
+                    prev_x, prev_y = x0, y0
+                x0, y0 = x1, y1
+        # past the last vertex: straight on along the last segment
+        dx, dy = x0 - prev_x, y0 - prev_y
+        while have and j < stations.size and dx > 0.0:
+            out[e, j] = y0 + (stations[j] - x0) * dy / dx
+            j += 1
+        first += k

@@ -1,0 +1,177 @@
+"""The road ahead from a map (the ``"map"`` path): the lanes along the route in the ego frame
+(acc_fusion.truth.sumo.lane_path), the localisation error that places them
+(acc_fusion.sensors.localization) and the selection on them (acc_fusion.warning.selection)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from acc_fusion.core.errors import ConfigError, InputError
+from acc_fusion.sensors.localization import MapLocalization
+from acc_fusion.truth.objects import PATH_STATIONS
+from acc_fusion.truth.sumo.lane_path import _sample
+from acc_fusion.truth.sumo.roadside import _lane_geometry
+from acc_fusion.warning.selection import InPathSelector, SelectionConfig
+
+
+def sample(shapes: list[np.ndarray], pos: float, front, heading: float) -> np.ndarray:
+    """The path at the stations of an ego at lane position ``pos`` of the first of the lanes
+    ``shapes`` (each ``(k, 2)``, driven in order), its front bumper at ``front``."""
+    geometry = [_lane_geometry(s) for s in shapes]
+    sizes = [len(s) for s in shapes]
+    start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    vx, vy = (np.concatenate([s[:, i] for s in shapes]) for i in (0, 1))
+    vs = np.concatenate([g[0] for g in geometry])
+    out = np.full((1, PATH_STATIONS.size), np.nan)
+    _sample(np.arange(len(shapes), dtype=np.int64), np.array([len(shapes)]), np.array([pos]),
+            np.array([front[0]]), np.array([front[1]]), np.array([heading]), start, vx, vy, vs,
+            PATH_STATIONS, out)  # fmt: skip
+    return out[0]
+
+
+def arc(radius: float, start: float, stop: float, step_deg: float = 0.5) -> np.ndarray:
+    """Points of a left-turning circle of ``radius`` centred at (0, radius), from angle
+    ``start`` to ``stop`` [rad] (0: the origin, heading east)."""
+    a = np.arange(start, stop + 1e-12, math.radians(step_deg))
+    return np.column_stack([radius * np.sin(a), radius * (1.0 - np.cos(a))])
+
+
+def test_the_path_of_a_curved_lane_is_its_circle_in_the_ego_frame():
+    r = 400.0
+    lane = arc(r, -0.1, 1.0)
+    # the ego's front bumper on the lane at the origin, heading east (the tangent)
+    pos = r * 0.1
+    path = sample([lane[: len(lane) // 2], lane[len(lane) // 2 - 1 :]], pos, (0.0, 0.0), 0.0)
+    x = PATH_STATIONS
+    circle = r - np.sqrt(r * r - x * x)
+    # a 0.5° chord strays r (1 - cos 0.25°) = 4 mm from its arc
+    np.testing.assert_allclose(path, circle, atol=0.01)
+
+
+def test_past_the_last_lane_the_path_goes_straight_on_and_a_loop_stops_at_its_turn():
+    straight = np.array([[0.0, 0.0], [60.0, 0.0], [100.0, 10.0]])
+    path = sample([straight], 0.0, (0.0, 0.0), 0.0)
+    np.testing.assert_allclose(path[PATH_STATIONS <= 60], 0.0, atol=1e-12)
+    np.testing.assert_allclose(path[PATH_STATIONS >= 100], (PATH_STATIONS[PATH_STATIONS >= 100]
+                                                           - 60.0) / 4.0)  # fmt: skip
+    loop = sample([arc(30.0, 0.0, 3.0)], 0.0, (0.0, 0.0), 0.0)  # turns back after x = 30 m
+    assert np.isfinite(loop[PATH_STATIONS < 30]).all() and np.isnan(loop[PATH_STATIONS > 30]).all()
+
+
+def test_the_path_is_in_the_ego_frame_wherever_the_ego_stands_and_heads():
+    """The same lane seen from an ego moved and turned with it: the same path."""
+    lane = arc(400.0, 0.0, 0.8)
+    turn, shift = 2.0, np.array([1234.0, -567.0])
+    rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+    moved = lane @ rot.T + shift
+    np.testing.assert_allclose(sample([moved], 0.0, shift, turn), sample([lane], 0.0, (0, 0), 0),
+                               atol=1e-9)  # fmt: skip
+
+
+def select(config, x, y, road_path=None, curvature=0.0):
+    x, y = np.atleast_2d(np.asarray(x, float)), np.atleast_2d(np.asarray(y, float))
+    sel = InPathSelector(config, *x.shape)
+    return sel.step(np.arange(x.shape[1])[None, :], x, y, np.full(x.shape, 20.0),
+                    np.zeros(x.shape, bool), np.array([25.0]), np.array([0.0]),
+                    np.array([curvature]), road_path=road_path)  # fmt: skip
+
+
+def test_the_map_path_follows_a_lane_that_bends_away_where_the_curvature_at_the_ego_is_zero():
+    """The ego's lane splits off to the left 50 m ahead; a car 100 m ahead straight on is on
+    the lane it leaves, a car on the bend is the ego's."""
+    bend = np.where(PATH_STATIONS > 50, (PATH_STATIONS - 50) ** 2 / 800.0, 0.0)[None, :]
+    on_bend = float(np.interp(100.0, PATH_STATIONS, bend[0]))  # 3.1 m to the left
+    config = SelectionConfig(path="map", stationary="all")
+    assert select(config, [100.0, 110.0], [0.0, on_bend + 0.6], bend)[0] == 1
+    assert select(SelectionConfig(path="lane", stationary="all"), [100.0, 110.0],
+                  [0.0, on_bend + 0.6])[0] == 0  # fmt: skip
+    # where the map gives no path (an ego on no lane), the lane's curvature at the ego
+    unknown = np.full_like(bend, np.nan)
+    assert select(config, [100.0], [0.5 * 100.0**2 / 400.0], unknown, 1 / 400.0)[0] == 0
+
+
+def test_the_map_path_needs_a_source_that_gives_it_and_its_settings_are_checked():
+    with pytest.raises(InputError, match="SUMO and the scripted scenes give"):
+        select(SelectionConfig(path="map"), [50.0], [0.0])
+    with pytest.raises(InputError, match="road_path must have shape"):
+        select(SelectionConfig(path="map"), [50.0], [0.0], np.zeros((1, 3)))
+    for name, value in (("map_lateral_std", -0.1), ("map_error_time", 0.0)):
+        with pytest.raises(ConfigError, match=name):
+            SelectionConfig(**{name: value})
+
+
+def test_the_localisation_error_has_its_spread_and_correlation_and_restarts_per_slot():
+    n, dt, tau = 4000, 0.1, 2.0
+    loc = MapLocalization(0.1, 0.0045, tau, n, np.random.default_rng(0))
+    flat = np.zeros((n, PATH_STATIONS.size))
+    first = loc.step(flat, dt)
+    second = loc.step(flat, dt)
+    lateral, heading = first[:, 0], (first[:, -1] - first[:, 0]) / PATH_STATIONS[-1]
+    assert np.std(lateral) == pytest.approx(0.1, rel=0.05)
+    assert np.std(heading) == pytest.approx(0.0045, rel=0.05)
+    rho = np.corrcoef(first[:, 0], second[:, 0])[0, 1]
+    assert rho == pytest.approx(math.exp(-dt / tau), abs=0.01)
+    egos = np.zeros(n, bool)
+    egos[: n // 2] = True
+    loc.forget(egos)
+    third = loc.step(flat, dt)
+    assert abs(np.corrcoef(second[: n // 2, 0], third[: n // 2, 0])[0, 1]) < 0.06
+    assert np.corrcoef(second[n // 2 :, 0], third[n // 2 :, 0])[0, 1] > 0.9
+
+
+@pytest.mark.filterwarnings("ignore:more than capacity")
+def test_on_the_bundled_motorway_the_true_lead_drives_on_the_map_path():
+    """SUMO's leader of each ego, wherever it is ahead (ramps, curves of 900 and 1 300 m
+    radius, lanes that merge), lies on the ego's map path."""
+    pytest.importorskip("libsumo")
+    from acc_fusion.truth.sumo.config import SumoConfig
+    from acc_fusion.truth.sumo.nets import bundled_nets
+    from acc_fusion.truth.sumo.objects import ObjectFieldConfig, SumoObjects
+    from acc_fusion.truth.sumo.source import SumoSource
+
+    config = SumoConfig(str(bundled_nets()["motorway"]), end=40.0, seed=2, capacity=64)
+    offsets, start = [], []
+    with SumoSource(config) as src:
+        objects = SumoObjects(src, ObjectFieldConfig(map_path=True))
+        while not src.done:
+            src.advance()
+            frame = objects.frame()
+            active = src.active[: frame.n_egos]
+            start.append(frame.road_path[active, 0])
+            e = np.flatnonzero(active & (frame.lead >= 0))
+            for ego, k in zip(e.tolist(), frame.lead[e].tolist(), strict=True):
+                path = np.interp(frame.x[ego, k], PATH_STATIONS, frame.road_path[ego])
+                offsets.append(frame.y[ego, k] - path)
+    offsets, start = np.abs(offsets), np.abs(np.concatenate(start))
+    assert offsets.size > 3000 and np.isfinite(offsets).all()
+    assert np.median(offsets) < 0.01 and np.percentile(offsets, 95) < 0.1
+    assert np.percentile(start, 99) < 0.01  # the ego drives on its lane's centreline
+
+
+def test_a_scene_gives_its_road_as_the_map_and_the_map_path_keeps_the_parked_car_out():
+    """``parked_curve``: straight for 150 m, then a left curve; the car parked on the right
+    shoulder where the straight extension crosses it is the yaw-rate path's false target,
+    and the fused path's in some runs; on the map's path it is beside the lane in every run."""
+    from acc_fusion.sim.closed_loop import SimConfig
+    from acc_fusion.sim.world import simulate_world
+    from acc_fusion.sim.world_config import WorldConfig
+    from acc_fusion.truth.scenes import SceneConfig, SceneSource
+
+    scene = SceneConfig(scene="parked_curve", runs=2)
+    assert SceneSource(scene, 0).frame().road_path.shape == (2, 0)  # no map
+    source = SceneSource(scene, 0, map_path=True)
+    path = source.frame().road_path
+    kappa = source.scene.road.curves[0][1]
+    np.testing.assert_allclose(path[:, PATH_STATIONS <= 150.0], 0.0, atol=1e-9)
+    beyond = PATH_STATIONS[-1] - 150.0  # on the circle past the curve's start, to 2nd order
+    assert path[0, -1] == pytest.approx(0.5 * kappa * beyond**2, rel=0.05)
+
+    def false_alerts(path: str) -> int:
+        world = WorldConfig(scene="parked_curve", selection=SelectionConfig(path=path))
+        config = SimConfig(runs=20, methods=("federated",), world=world)
+        return simulate_world(config).summaries["federated"].sensing_false
+
+    assert false_alerts("map") == 0 < false_alerts("fused")
