@@ -12,8 +12,8 @@ import pytest
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.sensors.localization import MapLocalization
 from acc_fusion.truth.objects import PATH_STATIONS
-from acc_fusion.truth.sumo.lane_path import _sample
-from acc_fusion.truth.sumo.roadside import _lane_geometry
+from acc_fusion.truth.sumo.lane_path import RoutePaths, _sample
+from acc_fusion.truth.sumo.roadside import LaneTable, _lane_geometry
 from acc_fusion.warning.selection import InPathSelector, SelectionConfig
 
 
@@ -175,3 +175,56 @@ def test_a_scene_gives_its_road_as_the_map_and_the_map_path_keeps_the_parked_car
         return simulate_world(config).summaries["federated"].sensing_false
 
     assert false_alerts("map") == 0 < false_alerts("fused")
+
+
+class _Api:
+    """What :class:`RoutePaths` reads of libsumo, for a junction where lane ``a_0`` (1 km east)
+    splits into ``b_0`` (a left curve of 300 m radius) and ``c_0`` (a right turn-off)."""
+
+    def __init__(self, route: tuple[str, ...]) -> None:
+        links = {"a_0": [("b_0", ":j_0_0"), ("c_0", ":j_1_0")], ":j_0_0": [("b_0", "")],
+                 ":j_1_0": [("c_0", "")], "b_0": [], "c_0": []}  # fmt: skip
+        self.lane = type("Lane", (), {"getLinks": staticmethod(
+            lambda name: [(to, True, True, False, via, "M", "s", 1.0) for to, via in links[name]]
+        )})  # fmt: skip
+        vehicle = {"getRoute": staticmethod(lambda vid: route),
+                   "getRouteIndex": staticmethod(lambda vid: 0)}  # fmt: skip
+        self.vehicle = type("Vehicle", (), vehicle)
+
+
+def _junction() -> LaneTable:
+    shapes = {":j_0": np.array([[1000.0, 0.0], [1010.0, 0.0]]),
+              ":j_1": np.array([[1000.0, 0.0], [1010.0, -5.0]]),
+              "a": np.array([[0.0, 0.0], [1000.0, 0.0]]),
+              "b": arc(300.0, 0.0, 0.8) + [1010.0, 0.0],
+              "c": np.array([[1010.0, -5.0], [1200.0, -100.0]])}  # fmt: skip
+    edges = tuple(sorted(shapes))
+    geometry = [_lane_geometry(shapes[e]) for e in edges]
+    sizes = [len(shapes[e]) for e in edges]
+    return LaneTable(
+        edge_code={e: i for i, e in enumerate(edges)}, edge_ids=edges,
+        first_lane=np.arange(len(edges)), n_lanes=np.ones(len(edges), np.int64),
+        internal=np.array([e.startswith(":") for e in edges]), width=np.full(len(edges), 3.5),
+        speed=np.full(len(edges), 30.0),
+        start=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+        vx=np.concatenate([shapes[e][:, 0] for e in edges]),
+        vy=np.concatenate([shapes[e][:, 1] for e in edges]),
+        vs=np.concatenate([g[0] for g in geometry]), vh=np.concatenate([g[1] for g in geometry]),
+    )  # fmt: skip
+
+
+def test_the_path_follows_the_route_through_the_junction_from_anywhere_on_a_long_lane():
+    lanes = _junction()
+    a = lanes.edge_code["a"]
+    x = PATH_STATIONS
+    for pos in (0.0, 950.0):  # the lane is longer than the path's reach
+        ahead = x + pos - 1010.0  # along the curve, past the junction
+        curve = np.where(ahead > 0, 300.0 - np.sqrt(300.0**2 - np.maximum(ahead, 0) ** 2), 0.0)
+        paths = RoutePaths(_Api(("a", "b")), lanes)
+        path = paths.paths(["v"], np.array([7]), np.array([a]), np.array([pos]),
+                           np.array([pos]), np.array([0.0]), np.array([0.0]))[0]  # fmt: skip
+        np.testing.assert_allclose(path, curve, atol=0.05)
+    right = RoutePaths(_Api(("a", "c")), lanes).paths(
+        ["v"], np.array([7]), np.array([a]), np.array([950.0]), np.array([950.0]),
+        np.array([0.0]), np.array([0.0]))[0]  # fmt: skip
+    assert right[-1] < -50.0  # the turn-off, not the curve

@@ -253,7 +253,8 @@ def map_offset(row, step, x, y, y_var, lat_var, heading_var, kappa):  # pragma: 
     \sigma_{e_y}^2 + x^2 \sigma_{e_\psi}^2` (``lat_var``, ``heading_var``: the
     localisation's, :mod:`acc_fusion.sensors.localization`), as a pair.  Where the row gives
     no path at ``x`` (NaN: the ego on no lane, or a loop the path does not reach), the
-    circle of the lane's curvature ``kappa`` at the ego, as the ``"lane"`` path."""
+    circle of the lane's curvature ``kappa`` at the ego, as the ``"lane"`` path, the offset's
+    variance then the track's alone."""
     u = max(x, 0.0) / step
     i = min(int(u), row.size - 2)
     yp = row[i] + (u - i) * (row[i + 1] - row[i])

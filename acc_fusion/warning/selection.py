@@ -107,7 +107,7 @@ class SelectionConfig:
         half_width: half the in-path corridor [m]; 1.75 (half a 3.5 m lane; assumption).
         enter_probability, keep_probability: in-path probability at which an object becomes
             selectable, and at which the object selected at the last step stays so (``"fused"``
-            path); 0.5 and 0.5, no hysteresis (assumptions).
+            and ``"map"`` paths); 0.5 and 0.5, no hysteresis (assumptions).
         heading_std: std of a vehicle's heading about its lane's tangent, as its track gives it
             [rad]; 0.03 (lane keeping, 0.3 m/s of lateral speed at 30 m/s, is 0.01; a
             constant-velocity track's heading lags its turning vehicle's in a curve; on the
@@ -235,7 +235,8 @@ class InPathSelector(PairState):
     classifying sensor (a slot's memory starts afresh when its object id changes), and per ego the
     object it selected last.  After each :meth:`step` it holds that step's path and corridor for
     observers (the world environment's observation): ``curvature (E,)`` of the predicted path at the
-    ego [1/m] (:math:`c_0`), ``curvature_rate (E,)`` [1/m²] (:math:`c_1`, 0 but for the ``"fused"``
+    ego [1/m] (:math:`c_0`; with ``"map"`` the lane's at the ego, the map's path being no
+    clothoid), ``curvature_rate (E,)`` [1/m²] (:math:`c_1`, 0 but for the ``"fused"``
     path), ``offset (E, F)`` each object's lateral offset from it, :math:`y - y_p(x)` [m],
     ``probability (E, F)`` its in-path probability (0 for an empty slot and for an object that the
     stationary and oncoming rules or a place behind the ego exclude), ``in_path (E, F)`` the objects
@@ -302,10 +303,11 @@ class InPathSelector(PairState):
             ground_speed: ``(E, F)`` estimated ground speed of the object [m/s].
             confirmed: ``(E, F)`` a classifying sensor confirms the object as a vehicle.
             speed, yaw_rate, road_curvature: ``(E,)`` ego speed [m/s], measured yaw rate
-                [rad/s] and the ego lane's curvature [1/m] (used by ``path="lane"``, and by
-                ``"fused"`` with a map).
+                [rad/s] and the ego lane's curvature [1/m] (used by ``path="lane"``, by
+                ``"fused"`` with a map, and by ``"map"`` where the map gives no path).
             vy, y_var, vy_var: ``(E, F)`` the objects' estimated lateral velocity relative to
-                the ego [m/s], and the variances of ``y`` and ``vy`` (used by ``"fused"``).
+                the ego [m/s], and the variances of ``y`` (used by ``"fused"`` and ``"map"``)
+                and ``vy`` (``"fused"``).
             dt: time since the last step [s] (the ``"fused"`` path's road filter).
             seen: ``(object_id, x, vx)``, each ``(E, F)``: what the road filter reads of the
                 objects (their ids, ranges and relative longitudinal velocities), when it is

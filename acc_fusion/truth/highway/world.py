@@ -157,6 +157,8 @@ class HighwayWorld(SlotWorld):
             raise ConfigError(f"config must be an ObjectFieldConfig, got {type(config).__name__}")
         if not isinstance(source, HighwaySource):
             raise ConfigError(f"source must be a HighwaySource, got {type(source).__name__}")
+        if config.map_path:
+            raise ConfigError("highway-env gives no lane map here: field.map_path must be false")
         if source.closed:
             raise ConfigError("the highway-env source is closed; give an open one")
         self.source, self.config = source, config

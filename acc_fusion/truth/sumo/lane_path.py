@@ -6,11 +6,14 @@ continues into along its route, in the ego frame (:attr:`ObjectFrame.road_path
 The lanes ahead
     From the ego's lane, the lane sequence follows SUMO's links (libsumo ``lane.getLinks``,
     read once for every lane): from a lane inside a junction its one link; from a lane of an
-    edge, the link into the next edge of the vehicle's route (``vehicle.getRoute``, read once
-    per vehicle), through the junction's internal lane.  Where the ego's lane has no link into
-    the next edge (the vehicle must change lanes first) or the route ends, the sequence ends,
-    and the path beyond continues along the last segment's direction.  The sequence covers
-    :data:`REACH` metres past the ego and is made again only when the ego's lane changes.
+    edge, of its links into the next edge of the vehicle's route (``vehicle.getRoute`` and
+    ``getRouteIndex``, read when the ego's lane changes: a rerouted vehicle's new route) the
+    one into the lane of the same index, else the nearest, through the junction's internal
+    lanes one by one.  Where the ego's lane has no link into the next edge (the vehicle must
+    change lanes first) or the route ends, the sequence ends, and the path beyond continues
+    along the last segment's direction.  The sequence covers :data:`REACH` metres past the
+    end of the ego's lane, so past the ego wherever it is on it, and is made again only when
+    the ego's lane changes.
 
 In the ego frame
     The vertices of the sequence's shapes from the ego's lane position on, :math:`q_i`, are
@@ -63,40 +66,39 @@ class RoutePaths:
              if to in index]
             for name in names
         ]  # fmt: skip
-        self._routes: dict[int, list[int]] = {}  # by object id: the route's edge rows
+        self._index = [g - int(lanes.first_lane[e]) for g, e in enumerate(self._lane_edge)]
         self._held: dict[int, tuple[int, np.ndarray]] = {}  # by object id: (lane, its lanes)
 
-    def _route(self, oid: int, vid: str) -> list[int]:
-        route = self._routes.get(oid)
-        if route is None:
-            code = self._lanes.edge_code
-            route = self._routes[oid] = [code.get(e, -1) for e in self._api.vehicle.getRoute(vid)]
-        return route
-
-    def _sequence(self, lane: int, route: list[int]) -> np.ndarray:
-        """The global lanes from ``lane`` on along ``route`` (module docstring), until they
-        reach :data:`REACH` past the start of ``lane``."""
-        internal, edge_of = self._lanes.internal, self._lane_edge
-        at = route.index(edge_of[lane]) if edge_of[lane] in route else -1  # the lane's edge
-        out, length = [lane], self._length[lane]
+    def _sequence(self, lane: int, route: list[int], at: int) -> np.ndarray:
+        """The global lanes from ``lane`` on along ``route``, the edge rows of the vehicle's
+        route, ``at`` the index in it of the edge the vehicle is on (or has just left, in a
+        junction; module docstring), until they reach :data:`REACH` past the end of ``lane``:
+        past the ego wherever it is on the lane."""
+        internal, edge_of, index = self._lanes.internal, self._lane_edge, self._index
+        if not internal[edge_of[lane]] and not (
+            0 <= at < len(route) and route[at] == edge_of[lane]
+        ):
+            at = route.index(edge_of[lane]) if edge_of[lane] in route else -1
+        out, length = [lane], 0.0
         while length < REACH:
             links = self._links[lane]
-            if not internal[edge_of[lane]]:
+            if not internal[edge_of[lane]]:  # into the route's next edge, keeping the lane
                 if at < 0 or at + 1 >= len(route):
                     break
-                links = [link for link in links if edge_of[link[0]] == route[at + 1]]
+                links = sorted((link for link in links if edge_of[link[0]] == route[at + 1]),
+                               key=lambda link: abs(index[link[0]] - index[lane]))  # fmt: skip
             if not links:
                 break
-            lane, via = links[0]
-            for g in (via, lane) if via >= 0 else (lane,):
-                out.append(g)
-                length += self._length[g]
-            edge = edge_of[lane]
-            if not internal[edge]:
-                if 0 <= at < len(route) - 1 and route[at + 1] == edge:
-                    at += 1
-                else:
-                    at = route.index(edge) if edge in route else -1
+            to, via = links[0]
+            lane = via if via >= 0 else to  # through the junction's lanes, one by one
+            out.append(lane)
+            length += self._length[lane]
+            if (
+                not internal[edge_of[lane]]
+                and at + 1 < len(route)
+                and route[at + 1] == edge_of[lane]
+            ):
+                at += 1
         return np.asarray(out, dtype=np.int64)
 
     def paths(
@@ -113,8 +115,8 @@ class RoutePaths:
         the egos' SUMO vehicle ids (``None`` for an empty slot), ``oid`` their object ids,
         ``lane`` their global lanes (-1: on none), ``pos`` their lane positions, ``front_x``,
         ``front_y`` their front bumpers in the network frame [m] and ``heading`` [rad]."""
-        n = len(ids)
-        sequences = []
+        n, veh, code = len(ids), self._api.vehicle, self._lanes.edge_code
+        sequences, kept = [], {}
         for e in range(n):
             g = int(lane[e])
             if ids[e] is None or g < 0:
@@ -122,9 +124,12 @@ class RoutePaths:
                 continue
             o = int(oid[e])
             held = self._held.get(o)
-            if held is None or held[0] != g:
-                held = self._held[o] = (g, self._sequence(g, self._route(o, ids[e])))
+            if held is None or held[0] != g:  # a new lane: the route as it is now
+                route = [code.get(edge, -1) for edge in veh.getRoute(ids[e])]
+                held = (g, self._sequence(g, route, int(veh.getRouteIndex(ids[e]))))
+            kept[o] = held
             sequences.append(held[1])
+        self._held = kept  # the vehicles gone are forgotten
         counts = np.array([s.size for s in sequences], dtype=np.int64)
         flat = np.concatenate(sequences) if n else np.zeros(0, np.int64)
         out = np.full((n, PATH_STATIONS.size), np.nan)
@@ -163,7 +168,7 @@ def _sample(
                 if not have:
                     have, x0, y0, prev_x, prev_y = True, x1, y1, x1 - 1.0, y1
                     continue
-                if x1 < x0:  # turning back: the stations left are not reached
+                if x1 < x0 - 1e-3:  # turning back: the stations left are not reached
                     j = stations.size
                 while j < stations.size and stations[j] <= x1:
                     if stations[j] < x0:  # behind the ego's own point
