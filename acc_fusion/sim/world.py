@@ -326,18 +326,9 @@ class WorldPerception(PairState):
         for m, estimator in self.estimators.items():
             est = raw[m] = estimator.step(measurements, target, u, copy=False)
             estimates[m], truth_id[m] = self._select(
-                m,
-                est,
-                fused,
-                tracks,
-                v_ego,
-                yaw,
-                frame.road_curvature,
-                active,
-                dt,
-                seen,
+                m, est, fused, tracks, v_ego, yaw, frame.road_curvature, active, dt, seen,
                 road_path,
-            )
+            )  # fmt: skip
             cause = alert_cause(frame, truth_id[m], lead.leader_id)
             if any(faulty[s] for s in _SENSORS_OF.get(m, faulty)):
                 cause[:] = CAUSES.index("fault")

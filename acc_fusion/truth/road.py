@@ -61,15 +61,16 @@ class RoadGeometry:
         th = self.at("theta", s)
         return self.at("x", s) - d * np.sin(th), self.at("y", s) + d * np.cos(th)
 
-    def lane_ahead(self, s: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    def lane_ahead(
+        self, s: np.ndarray, ex: np.ndarray, ey: np.ndarray, heading: np.ndarray
+    ) -> np.ndarray:
         """``(N, len(PATH_STATIONS))`` the lane's centreline ahead of egos on it at arc
-        lengths ``s (N,)`` with ``heading (N,)`` [rad] (the lane's own, for an ego on its
-        centreline), in each ego's frame at the stations
+        lengths ``s (N,)``, at ``(ex, ey) (N,)`` with ``heading (N,)`` [rad] (their
+        :meth:`point` and the lane's own heading there), in each ego's frame at the stations
         :data:`~acc_fusion.truth.objects.PATH_STATIONS`: the scene's road as a map
         (:attr:`~acc_fusion.truth.objects.ObjectFrame.road_path`)."""
         arc = s[:, None] + _AHEAD
         qx, qy = self.point(arc, np.zeros_like(arc))
-        ex, ey = self.point(s, np.zeros_like(s))
         c, sn = np.cos(heading)[:, None], np.sin(heading)[:, None]
         dx, dy = qx - ex[:, None], qy - ey[:, None]
         x, y = c * dx + sn * dy, -sn * dx + c * dy

@@ -422,7 +422,7 @@ class SceneSource:
             speed=np.broadcast_to(ground, valid.shape).copy(), accel=a, heading=psi - th_e,
             length=length, width=width, height=height, rcs=rcs, thermal_contrast=contrast,
             lane=lane, lead=lead, lateral_speed=d_rate,
-            road_path=self._geo.lane_ahead(self._s, th_e[:, 0]) if self.map_path else None,
+            road_path=self._geo.lane_ahead(self._s, ex, ey, th_e[:, 0]) if self.map_path else None,
         )  # fmt: skip
 
     def advance(self, ego_brake: np.ndarray | None = None) -> None:

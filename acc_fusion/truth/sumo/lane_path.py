@@ -142,7 +142,7 @@ class RoutePaths:
 @njit(cache=True)
 def _sample(
     flat, counts, pos, px, py, heading, start, vx, vy, vs, stations, out
-):  # pragma: no cover - compiled  # noqa: E501
+):  # pragma: no cover - compiled
     """Write each ego's path at ``stations`` into ``out (E, J)`` (module docstring): its lanes
     ``flat[counts[:e].sum():][:counts[e]]``, their vertices from lane position ``pos[e]`` on
     the first, in the frame of the front bumper ``(px, py)`` and ``heading``."""
