@@ -192,3 +192,13 @@ def test_bench_all_tabulates_the_benchmarks_it_runs(tmp_path):
         "| replay pair-steps/s |" in table and "`python scripts/bench_replay.py --quick`" in table
     )
     assert run("bench_all.py", "--repeat", "0", ok=False).returncode == 2
+
+
+def test_alert_onsets_prints_what_the_false_alerts_were_at_their_onsets():
+    out = run("alert_onsets.py", "--net", "motorway", "--end", "40").stdout
+    assert re.fullmatch(r"adjacent=\d+ on_lead=\d+", out.strip().splitlines()[-1])
+    assert "motorway.sumocfg, seed 0, federated, path fused, FCW off" in out
+    bad = run(
+        "alert_onsets.py", "--net", "motorway", "--set", "world.selection.path=nope", ok=False
+    )
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1
