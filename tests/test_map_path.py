@@ -12,7 +12,7 @@ import pytest
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.sensors.localization import MapLocalization
 from acc_fusion.truth.objects import PATH_STATIONS
-from acc_fusion.truth.sumo.lane_path import RoutePaths, _sample
+from acc_fusion.truth.sumo.lane_path import RoutePaths, sample_lanes
 from acc_fusion.truth.sumo.roadside import LaneTable, _lane_geometry
 from acc_fusion.warning.selection import InPathSelector, SelectionConfig
 
@@ -26,7 +26,7 @@ def sample(shapes: list[np.ndarray], pos: float, front, heading: float) -> np.nd
     vx, vy = (np.concatenate([s[:, i] for s in shapes]) for i in (0, 1))
     vs = np.concatenate([g[0] for g in geometry])
     out = np.full((1, PATH_STATIONS.size), np.nan)
-    _sample(np.arange(len(shapes), dtype=np.int64), np.array([len(shapes)]), np.array([pos]),
+    sample_lanes(np.arange(len(shapes), dtype=np.int64), np.array([len(shapes)]), np.array([pos]),
             np.array([front[0]]), np.array([front[1]]), np.array([heading]), start, vx, vy, vs,
             PATH_STATIONS, out)  # fmt: skip
     return out[0]
@@ -94,7 +94,7 @@ def test_the_map_path_follows_a_lane_that_bends_away_where_the_curvature_at_the_
 
 
 def test_the_map_path_needs_a_source_that_gives_it_and_its_settings_are_checked():
-    with pytest.raises(InputError, match="SUMO and the scripted scenes give"):
+    with pytest.raises(InputError, match="SUMO, highway-env and the scripted scenes give"):
         select(SelectionConfig(path="map"), [50.0], [0.0])
     with pytest.raises(InputError, match="road_path must have shape"):
         select(SelectionConfig(path="map"), [50.0], [0.0], np.zeros((1, 3)))
@@ -228,3 +228,80 @@ def test_the_path_follows_the_route_through_the_junction_from_anywhere_on_a_long
         ["v"], np.array([7]), np.array([a]), np.array([950.0]), np.array([950.0]),
         np.array([0.0]), np.array([0.0]))[0]  # fmt: skip
     assert right[-1] < -50.0  # the turn-off, not the curve
+
+
+# highway-env's lanes ahead, by hand for merge-v0: a lane and the lanes it joins. The
+# acceleration lane ("b", "c", 2) ends (its obstacle closes it), so the path goes straight on.
+_MERGE_CHAINS = {
+    ("a", "b", 0): [("a", "b", 0), ("b", "c", 0), ("c", "d", 0)],
+    ("a", "b", 1): [("a", "b", 1), ("b", "c", 1), ("c", "d", 1)],
+    ("b", "c", 0): [("b", "c", 0), ("c", "d", 0)],
+    ("b", "c", 1): [("b", "c", 1), ("c", "d", 1)],
+    ("b", "c", 2): [("b", "c", 2)],
+    ("c", "d", 0): [("c", "d", 0)],
+    ("c", "d", 1): [("c", "d", 1)],
+    ("j", "k", 0): [("j", "k", 0), ("k", "b", 0), ("b", "c", 2)],
+    ("k", "b", 0): [("k", "b", 0), ("b", "c", 2)],
+}
+
+
+def _dense_path(network, chain, front, heading) -> np.ndarray:
+    """The path at the stations from highway-env's centreline points every 5 cm along
+    ``chain`` from the front bumper's projection, then straight on for 300 m."""
+    first = network.get_lane(chain[0])
+    s0 = first.local_coordinates(np.asarray(front))[0]
+    pts = []
+    for k, index in enumerate(chain):
+        lane = network.get_lane(index)
+        s = np.arange(max(s0, 0.0) if k == 0 else 0.0, lane.length, 0.05)
+        pts += [lane.position(v, 0.0) for v in s]
+    end = network.get_lane(chain[-1])
+    pts.append(end.position(end.length, 0.0))
+    d = end.position(end.length, 0.0) - end.position(end.length - 0.05, 0.0)
+    pts += [pts[-1] + d / np.linalg.norm(d) * u for u in np.arange(0.05, 300.0, 0.05)]
+    q = np.asarray(pts) - np.asarray(front)
+    c, s = math.cos(heading), math.sin(heading)
+    x, y = q[:, 0] * c + q[:, 1] * s, -q[:, 0] * s + q[:, 1] * c
+    return np.interp(PATH_STATIONS, x, y)
+
+
+def test_highway_env_gives_the_lanes_ahead_as_the_map_on_merge_v0():
+    pytest.importorskip("highway_env")
+    from dataclasses import replace
+
+    from acc_fusion.truth.highway.config import HighwayConfig
+    from acc_fusion.truth.highway.source import HighwaySource
+    from acc_fusion.truth.highway.world import DEFAULT_FIELD, HighwayWorld
+
+    seen = set()
+    with HighwaySource(HighwayConfig("merge-v0", episodes=1, duration=20.0, seed=2)) as src:
+        world = HighwayWorld(src, replace(DEFAULT_FIELD, map_path=True))
+        network = src.env.road.network
+        k = 0
+        while not world.done:
+            frame = world.frame()
+            assert frame.road_path.shape == (src.n_pairs, PATH_STATIONS.size)
+            assert np.all(np.isnan(frame.road_path[~src.active]))
+            for e in np.flatnonzero(src.active) if k % 4 == 0 else ():
+                v = src.vehicles[e]
+                front = v.position + 0.5 * v.LENGTH * np.array(
+                    [np.cos(v.heading), np.sin(v.heading)]
+                )
+                want = _dense_path(network, _MERGE_CHAINS[v.lane_index], front, v.heading)
+                np.testing.assert_allclose(frame.road_path[e], want, atol=0.01)
+                seen.add(v.lane_index[:2])
+            world.advance()
+            k += 1
+    assert {("a", "b"), ("j", "k"), ("k", "b"), ("b", "c")} <= seen  # the ramp and the merge
+    with HighwaySource(HighwayConfig("merge-v0", episodes=1, duration=1.0)) as src:
+        assert HighwayWorld(src).frame().road_path.shape == (src.n_pairs, 0)  # no map asked
+
+
+def test_the_highway_world_command_selects_on_highway_envs_map(capsys):
+    pytest.importorskip("highway_env")
+    from acc_fusion.cli.main import main
+
+    args = ["highway", "--world", "--env", "merge-v0", "--episodes", "1", "--duration", "2",
+            "--set", "world.selection.path=map"]  # fmt: skip
+    assert main(args) == 0  # without the map in the frames, the selection refuses (above)
+    assert "Alerts by class, merge-v0, day" in capsys.readouterr().out

@@ -12,7 +12,7 @@ from acc_fusion.studies.world import WorldStudy
 from acc_fusion.truth.conditions import Conditions
 from acc_fusion.truth.highway.config import HighwayConfig
 from acc_fusion.truth.highway.source import HighwaySource
-from acc_fusion.truth.highway.world import HighwayWorld
+from acc_fusion.truth.highway.world import DEFAULT_FIELD, HighwayWorld
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 
 
@@ -35,10 +35,12 @@ def highway_world_study(
             ``(cfg.env, condition label)``).
         progress: show the source's progress bar over the episodes.
         field: the forward field and roadside objects (``None``:
-            :data:`~acc_fusion.truth.highway.world.DEFAULT_FIELD`).
+            :data:`~acc_fusion.truth.highway.world.DEFAULT_FIELD`); its ``map_path`` follows
+            ``sim.world``'s path (the map's lanes for the ``"map"`` path).
         osi: where to write an OSI trace of every vehicle of every episode, named
             ``<env>_<condition>_epNNN_vNN.mcap`` (:class:`OsiOutput`).
     """
+    field = DEFAULT_FIELD if field is None else field
     results, traces = {}, []
     for cond in conditions:
         with HighwaySource(cfg, progress=progress) as source:
@@ -48,7 +50,7 @@ def highway_world_study(
             def names(source=source) -> list[str]:
                 return [f"ep{source.episode:03d}_v{e:02d}" for e in range(source.n_pairs)]
 
-            objects = HighwayWorld(source, field)
+            objects = HighwayWorld(source, replace(field, map_path=sim.world.map_path))
             result, written = traced_world(run, objects, osi, f"{cfg.env}_{cond.label}_", names)
         results[(cfg.env, cond.label)], traces = result.summaries, traces + written
     return WorldStudy(sim, results, where=f"highway-env {cfg.env}", traces=traces)

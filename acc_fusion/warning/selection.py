@@ -340,8 +340,8 @@ class InPathSelector(PairState):
         mapped = cfg.path == "map"
         if mapped and road_path is None:
             raise InputError(
-                "world.selection.path = 'map' needs the lanes ahead from a map, which SUMO "
-                "and the scripted scenes give; choose another path for this source"
+                "world.selection.path = 'map' needs the lanes ahead from a map, which SUMO, "
+                "highway-env and the scripted scenes give; choose another path for this source"
             )
         road_path = check_array("road_path", road_path, (n, PATH_STATIONS.size), finite=False) \
             if mapped else np.zeros((n, 0))  # fmt: skip

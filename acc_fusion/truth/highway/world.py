@@ -65,6 +65,11 @@ Lateral speed, lead, ego motion
     ``CircularLane``, left positive in this frame).  Lane coordinates are highway-env's, a
     lane extended along its base beyond its ends (``clip``).
 
+The map
+    With ``map_path`` in the field (the selection's ``"map"`` path), each ego's lane and the
+    lanes it continues into, laid into its frame (:mod:`acc_fusion.truth.highway.lane_path`),
+    are the frame's ``road_path``; NaN in the rows of empty slots.
+
 Road objects
     highway-env's solid ``road.objects`` (``merge-v0``'s ``Obstacle`` closing the
     acceleration lane) are stationary ``GUARDRAIL`` objects, "other roadside metal": a real
@@ -100,9 +105,10 @@ from typing import Any
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
+from acc_fusion.truth.highway.lane_path import NetworkPaths
 from acc_fusion.truth.highway.lanes import LaneRows, wrap_angle
 from acc_fusion.truth.highway.source import HighwaySource
-from acc_fusion.truth.objects import OFF_ROAD, ObjectFrame, ObjectKind, SlotWorld
+from acc_fusion.truth.objects import OFF_ROAD, PATH_STATIONS, ObjectFrame, ObjectKind, SlotWorld
 from acc_fusion.truth.scenes import SIGNATURES
 from acc_fusion.truth.sumo.objects import ObjectFieldConfig
 from acc_fusion.truth.sumo.roadside import (
@@ -157,8 +163,6 @@ class HighwayWorld(SlotWorld):
             raise ConfigError(f"config must be an ObjectFieldConfig, got {type(config).__name__}")
         if not isinstance(source, HighwaySource):
             raise ConfigError(f"source must be a HighwaySource, got {type(source).__name__}")
-        if config.map_path:
-            raise ConfigError("highway-env gives no lane map here: field.map_path must be false")
         if source.closed:
             raise ConfigError("the highway-env source is closed; give an open one")
         self.source, self.config = source, config
@@ -203,7 +207,15 @@ class HighwayWorld(SlotWorld):
         obj = {k: np.concatenate([v, self._fixed[k]]) for k, v in veh.items()}
         slots = np.flatnonzero(src.active)
         vi = src.slot_vehicle_index[slots]
-        out = self._objects(obj, vi, slots, n, truth.leader_id[slots])
+        psi_e, half_e = obj["psi"][vi], 0.5 * obj["length"][vi]
+        front = (obj["x"][vi] + half_e * np.cos(psi_e), obj["y"][vi] + half_e * np.sin(psi_e))
+        out = self._objects(obj, vi, slots, n, truth.leader_id[slots], front)
+        if self._paths is not None:  # the map: each ego's lanes ahead
+            pos, _ = self._lanes.local(row[vi], *front)
+            out["road_path"] = np.full((n, PATH_STATIONS.size), np.nan)
+            out["road_path"][slots] = self._paths.paths(
+                [vs[i].lane_index for i in vi], pos, *front, psi_e
+            )
         ego = np.zeros((3, n))  # heading, speed, curvature
         ids = np.full(n, -1, np.int64)
         ids[slots] = obj["id"][vi]
@@ -215,13 +227,15 @@ class HighwayWorld(SlotWorld):
         )  # fmt: skip
         return self._frame
 
-    def _objects(self, obj: dict, vi: np.ndarray, slots: np.ndarray, n: int, leader: np.ndarray):
+    def _objects(
+        self, obj: dict, vi: np.ndarray, slots: np.ndarray, n: int, leader: np.ndarray, front
+    ) -> dict:
         """The ``(n, M)`` object arrays and ``lead`` of the egos of ``slots`` (vehicle indices
-        ``vi``, leader ids ``leader``), over egos x candidate objects (module docstring)."""
+        ``vi``, leader ids ``leader``, front bumpers ``front = (x, y)``), over egos x
+        candidate objects (module docstring)."""
         cfg = self.config
-        psi_e, half_e = obj["psi"][vi], 0.5 * obj["length"][vi]
+        psi_e, (px, py) = obj["psi"][vi], front
         c_e, s_e = np.cos(psi_e)[:, None], np.sin(psi_e)[:, None]
-        px, py = obj["x"][vi] + half_e * c_e[:, 0], obj["y"][vi] + half_e * s_e[:, 0]
         # Candidates: within reach of some ego's bumper (a bound of every field).
         reach = math.hypot(cfg.ahead, cfg.lateral) + 0.5 * float(obj["length"].max())
         lo = np.array([px.min(initial=np.inf), py.min(initial=np.inf)]) - reach
@@ -302,6 +316,7 @@ class HighwayWorld(SlotWorld):
         self._road, self._speed = road, None
         self._segments: dict[tuple[str, str], tuple[int, int]] = {}
         self._lanes = LaneRows(road.network)  # row 0: objects on no lane
+        self._paths = NetworkPaths(self._lanes) if self.config.map_path else None
         obs = [o for o in road.objects if getattr(o, "solid", True)]
         self.roadside = side = self._place(road)
         nr, no = len(side), len(obs)

@@ -134,16 +134,17 @@ class RoutePaths:
         flat = np.concatenate(sequences) if n else np.zeros(0, np.int64)
         out = np.full((n, PATH_STATIONS.size), np.nan)
         lanes = self._lanes
-        _sample(flat, counts, pos, front_x, front_y, heading, lanes.start, lanes.vx, lanes.vy,
+        sample_lanes(flat, counts, pos, front_x, front_y, heading, lanes.start, lanes.vx, lanes.vy,
                 lanes.vs, PATH_STATIONS, out)  # fmt: skip
         return out
 
 
 @njit(cache=True)
-def _sample(
+def sample_lanes(
     flat, counts, pos, px, py, heading, start, vx, vy, vs, stations, out
 ):  # pragma: no cover - compiled
-    """Write each ego's path at ``stations`` into ``out (E, J)`` (module docstring): its lanes
+    """Write each ego's path at ``stations`` into ``out (E, J)`` (module docstring; highway-env's
+    lanes too, :mod:`acc_fusion.truth.highway.lane_path`): its lanes
     ``flat[counts[:e].sum():][:counts[e]]``, their vertices from lane position ``pos[e]`` on
     the first, in the frame of the front bumper ``(px, py)`` and ``heading``."""
     first = 0
