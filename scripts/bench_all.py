@@ -70,7 +70,8 @@ BENCHES = (
           "speedup_vs_filterpy", 500, True),
     Bench("world", "2-D world / bare SUMO, A10KW", "bench_world.py", "overhead_ratio", 3.0,
           False),
-    Bench("replay", "replay pair-steps/s", "bench_replay.py", "pair_steps_per_s", 1e6, True),
+    Bench("replay", "replay pair-steps/s (recordings replayed before)", "bench_replay.py",
+          "pair_steps_per_s", 1e6, True),
     *(
         Bench(f"highway:{env}", f"highway-env pipeline / bare, {env}", "bench_highway.py",
               "overhead_ratio", 1.2, False, ("--quick", "--env", env), ("--env", env))

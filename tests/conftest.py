@@ -45,6 +45,16 @@ def run_methods(configs: dict[str, FusionConfig], n: int, steps: int, seed: int,
     return res, trace
 
 
+@pytest.fixture(scope="session", autouse=True)
+def replay_cache(tmp_path_factory):
+    """The replay's binary copies of recordings go to a folder of the session, not the user's
+    cache (the scripts the tests run inherit it)."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ACC_FUSION_REPLAY_CACHE", str(tmp_path_factory.mktemp("replay_cache")))
+    yield
+    mp.undo()
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

@@ -238,8 +238,9 @@ def test_the_benchmark_prints_its_figure_last():
         [sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=300
     )
     assert proc.returncode == 0, proc.stderr
-    last = proc.stdout.strip().splitlines()[-1]
-    assert last.startswith("pair_steps_per_s=") and float(last.split("=")[1]) > 0
+    lines = proc.stdout.strip().splitlines()
+    assert lines[-3].startswith("first replay: ") and lines[-2].startswith("replay again: ")
+    assert lines[-1].startswith("pair_steps_per_s=") and float(lines[-1].split("=")[1]) > 0
     bad = subprocess.run(
         [sys.executable, str(script), "--slots", "0"], capture_output=True, text=True
     )

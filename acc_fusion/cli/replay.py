@@ -30,6 +30,7 @@ def run(args: argparse.Namespace) -> int:
         recompute_leaders=args.recompute_leaders,
         slots=args.slots,
         bad_rows=args.bad_rows,
+        cache=not args.no_cache,
     )
     out = args.out
     sim = sim_config(args, runs=1)

@@ -1,8 +1,10 @@
 """What a path is, in words, and the check of an input file: so that a folder or a FIFO given
-where a file is read is reported as what it is, not as missing."""
+where a file is read is reported as what it is, not as missing; and where the project keeps
+what it computes once and reuses (:func:`cache_dir`)."""
 
 from __future__ import annotations
 
+import os
 import stat
 from pathlib import Path
 
@@ -37,3 +39,13 @@ def existing_file(path: str | Path, what: str, error: type[AccFusionError] = Con
     if kind != "a file":
         raise error(f"{what} {str(p)!r} is {kind}, not a file")
     return p
+
+
+def cache_dir() -> Path:
+    """The project's cache folder: ``$ACC_FUSION_CACHE``, else ``$XDG_CACHE_HOME/acc_fusion``,
+    else ``~/.cache/acc_fusion`` (the compiled SUMO reader, the replay's binary copies of
+    recordings)."""
+    if os.environ.get("ACC_FUSION_CACHE"):
+        return Path(os.environ["ACC_FUSION_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "acc_fusion"

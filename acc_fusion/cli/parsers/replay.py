@@ -61,6 +61,13 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         "refuse the recording, naming its row and column (default), or drop it and count it",
     )
     p.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="parse the CSV recordings without keeping a binary copy of their columns (by "
+        "default the first replay of a file keeps one in ~/.cache/acc_fusion/replay, "
+        "$ACC_FUSION_REPLAY_CACHE, and later replays read it instead of parsing)",
+    )
+    p.add_argument(
         "--pair",
         action="store_true",
         help="osi: the 1-D pair of host and lead (each sensor sees only the true leader) "

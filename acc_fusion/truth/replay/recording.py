@@ -3,8 +3,11 @@
 A recording is read twice, each time streamed (:mod:`~acc_fusion.truth.replay.csvfile`): once
 for its frame column only, to count the rows of every frame (:meth:`Recording.windows` then
 cuts the frames into windows of at most ``max_rows`` rows), then once per window for the rows
-of that window's frames.  A window is the unit the replay batches: all its vehicles are
-packed into the pipeline's slots at once, and no more than one window's rows are in memory.
+of that window's frames.  With :attr:`Recording.cache` the first read parses every column
+into a binary copy, and the reads after it, in this replay and the next, read the copy
+(:mod:`~acc_fusion.truth.replay.cache`).  A window is the unit the replay batches: all its
+vehicles are packed into the pipeline's slots at once, and no more than one window's rows are
+in memory.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.truth.replay import csvfile
+from acc_fusion.truth.replay import cache, csvfile
 from acc_fusion.truth.replay.rows import BOUNDS, ReplayError, Rows
 
 #: Rows of a window by default (about 0.2 GB of arrays).
@@ -49,9 +52,16 @@ class Recording(ABC):
     numbers: dict[str, str]
     strings: dict[str, str] | None = None
     where: tuple[str, str] | None = None
+    #: Read through the binary copy of :mod:`~acc_fusion.truth.replay.cache` (made on the
+    #: first read) instead of parsing the CSV at every read.
+    cache: bool = False
 
     def _stream(self, names: tuple[str, ...] | None = None) -> Iterator[dict[str, np.ndarray]]:
-        """The file's batches, of the columns ``names`` (default: all of :attr:`numbers`)."""
+        """The file's batches, of the columns ``names`` at least (default: all of
+        :attr:`numbers`); with :attr:`cache`, of all of them, from the file's binary copy."""
+        if self.cache:  # one copy of every column serves the frame pass and every window
+            yield from cache.stream(self.path, self.numbers, strings=self.strings, where=self.where)
+            return
         numbers = self.numbers if names is None else {k: self.numbers[k] for k in names}
         yield from csvfile.stream(self.path, numbers, strings=self.strings, where=self.where)
 

@@ -73,6 +73,9 @@ class ReplayConfig:
             (:data:`~acc_fusion.truth.replay.rows.BOUNDS`): ``"refuse"`` the recording (one
             error naming the file, row and column) or ``"drop"`` the row, counted in the
             exposure table's notes.
+        cache: read each CSV recording through its binary copy
+            (:mod:`~acc_fusion.truth.replay.cache`), made at its first replay: a recording
+            replayed again is read, not parsed.
     """
 
     format: str
@@ -83,10 +86,13 @@ class ReplayConfig:
     slots: int = 2048
     max_rows: int = MAX_ROWS
     bad_rows: str = "refuse"
+    cache: bool = True
 
     def __post_init__(self) -> None:
         check_choice("format", self.format, FORMATS)
         check_choice("bad_rows", self.bad_rows, BAD_ROWS)
+        if not isinstance(self.cache, bool):
+            raise ConfigError(f"cache must be true or false, got {self.cache!r}")
         if not 1 <= self.slots <= 1_000_000:
             raise ConfigError(f"slots must be in [1, 1000000], got {self.slots}")
         if self.max_rows < 1:
@@ -107,7 +113,7 @@ class ReplayConfig:
         else:
             recs = [CsvRecording(self.path, CsvMapping.load(self.mapping))]
         for r in recs:
-            r.bad_rows = self.bad_rows
+            r.bad_rows, r.cache = self.bad_rows, self.cache
         rates = {round(1.0 / r.dt, 6) for r in recs}
         if len(rates) > 1:
             raise ConfigError(

@@ -49,6 +49,8 @@ from importlib import resources
 from pathlib import Path
 from types import ModuleType
 
+from acc_fusion.core.paths import cache_dir
+
 #: The extension's C++ source, shipped with the package.
 SOURCE = "sumo_reads.cpp"
 #: Seconds a compilation may take before it counts as failed.
@@ -57,14 +59,6 @@ COMPILE_TIMEOUT = 300.0
 
 class NativeUnavailable(Exception):
     """Why the compiled reader cannot be used here (one sentence)."""
-
-
-def cache_dir() -> Path:
-    """Where compiled extensions are kept (see the module docstring)."""
-    if os.environ.get("ACC_FUSION_CACHE"):
-        return Path(os.environ["ACC_FUSION_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "acc_fusion"
 
 
 @functools.cache
