@@ -69,11 +69,37 @@ def test_an_object_seen_moving_stays_selectable_when_it_stops_until_its_slot_cha
     assert sel.step(np.array([[8]]), *args, np.array([[0.0]]), no, *ego)[0] == -1
 
 
+def _lateral(config, x, y, vy, vy_var=0.0):
+    """The slot selected among moving cars at ``x``, ``y`` with lateral velocities ``vy``."""
+    sel = InPathSelector(config, 1, len(x))
+    ids, ones = np.arange(len(x))[None, :], np.ones((1, len(x)))
+    return sel.step(ids, ones * x, ones * y, ones * 20.0, ones > 0, np.array([25.0]),
+                    np.zeros(1), np.zeros(1), vy=ones * vy, vy_var=ones * vy_var)[0]  # fmt: skip
+
+
+@pytest.mark.parametrize("path", ["straight", "fused"])
+def test_a_lateral_horizon_takes_a_cut_in_early_and_lets_a_cut_out_go(path):
+    now = SelectionConfig(path=path)
+    ahead = SelectionConfig(path=path, lateral_horizon=0.5)
+    # a car 2.5 m to the left, 20 m ahead, coming in at 2 m/s: in path at 1.5 m in 0.5 s
+    assert _lateral(now, [20.0], [2.5], [-2.0]) == -1
+    assert _lateral(ahead, [20.0], [2.5], [-2.0]) == 0
+    # the lead 1.2 m to the right, leaving at 2 m/s, hides a car 30 m further on: let go
+    assert _lateral(now, [20.0, 50.0], [-1.2, 0.0], [-2.0, 0.0]) == 0
+    assert _lateral(ahead, [20.0, 50.0], [-1.2, 0.0], [-2.0, 0.0]) == 1
+    # a lane keeper is kept; an uncertain lateral speed widens the prediction
+    assert _lateral(ahead, [20.0], [0.2], [0.0], vy_var=0.25) == 0
+    assert _lateral(ahead, [20.0], [1.6], [0.0], vy_var=0.0) == 0
+    assert _lateral(ahead, [20.0], [1.6], [0.0], vy_var=16.0) == -1
+
+
 def test_bad_selection_settings_are_one_error():
     with pytest.raises(ConfigError, match="selection.path"):
         SelectionConfig(path="gps")
     with pytest.raises(ConfigError, match="selection.half_width"):
         SelectionConfig(half_width=0.0)
+    with pytest.raises(ConfigError, match="selection.lateral_horizon"):
+        SelectionConfig(lateral_horizon=-0.5)
 
 
 def test_inputs_of_the_wrong_shape_are_one_error_and_scalars_broadcast():

@@ -32,8 +32,9 @@ Path prediction (``path``)
     distance;
     ``"map"``: the centreline of the ego's lane and of the lanes it continues into along its
     route, as a lane-level map gives it (:attr:`acc_fusion.truth.objects.ObjectFrame.road_path`:
-    SUMO's sources and the scripted scenes), placed with the error of the ego's localisation
-    on the map (:mod:`acc_fusion.sensors.localization`): the offset's variance is the track's plus
+    SUMO's sources, highway-env and the scripted scenes), placed with the error of the ego's
+    localisation on the map (:mod:`acc_fusion.sensors.localization`): the offset's variance is
+    the track's plus
     :math:`\sigma_{e_y}^2 + x^2\sigma_{e_\psi}^2` (:func:`acc_fusion.warning.path.map_offset`).
     It follows the lanes that split from or merge into the ego's, which no curvature at
     the ego, measured or estimated, describes.
@@ -50,6 +51,21 @@ Corridor (``half_width``)
     path down to that probability (hysteresis, off by default: it kept a cutting-out lead
     selected too long, see :mod:`acc_fusion.warning.path`'s theory
     page; both thresholds are assumptions).
+
+Lateral motion (``lateral_horizon``)
+    With a horizon :math:`\tau > 0` an object is judged where its lateral motion relative to
+    the ego takes it in :math:`\tau`: at the offset :math:`o + v_y \tau`, of variance
+    :math:`\sigma_o^2 + \tau^2 \sigma_{v_y}^2` (its track's lateral velocity and that
+    velocity's variance).  A vehicle cutting in is taken before it reaches the corridor, one
+    cutting out is let go before it leaves it, uncovering what it hid; the ego's own lane
+    change moves every object across its frame, so the vehicles of the lane it enters come in
+    and those of the lane it leaves go out.  Selecting the target from the lane-change
+    intention of the vehicles ahead is the approach of *Target vehicle selection algorithm
+    for adaptive cruise control based on lane-changing intention of preceding vehicle*
+    (Chinese Journal of Mechanical Engineering 34, 2021, doi:10.1186/s10033-021-00650-8),
+    which infers the intention from the lateral offset with a trained classifier; the
+    constant-velocity extrapolation and its horizon are this project's assumptions.  Off by
+    default (0).
 
 Stationary objects (``stationary``)
     A track whose estimated ground speed is below ``stationary_speed`` is stationary.
@@ -143,6 +159,9 @@ class SelectionConfig:
             trail; 0.75 (assumption).
         rail_std: the irregularity of a trail about a line parallel to the road [m]; 0.1
             (assumption).
+        lateral_horizon: time [s] over which each object's lateral motion relative to the
+            ego is carried forward for the in-path test (module docstring, "Lateral
+            motion"); 0 (default): the offset now.
         stationary: ``"all"``, ``"confirmed"`` (default) or ``"ignore"``.
         stationary_speed: ground speed below which a track is stationary [m/s]; 2.0
             (assumption: above the speed noise of a converged track).
@@ -171,6 +190,7 @@ class SelectionConfig:
     rail_band: tuple[float, float] = (2.5, 8.0)
     rail_gate: float = 0.75
     rail_std: float = 0.1
+    lateral_horizon: float = 0.0
     stationary: str = "confirmed"
     stationary_speed: float = 2.0
     oncoming: bool = False
@@ -181,6 +201,7 @@ class SelectionConfig:
         check_choice("selection.stationary", self.stationary, STATIONARY_POLICIES)
         check_range("selection.half_width", self.half_width, 0.0, MAX_HALF_WIDTH, lo_open=True)
         check_range("selection.stationary_speed", self.stationary_speed, 0.0, 50.0)
+        check_range("selection.lateral_horizon", self.lateral_horizon, 0.0, 5.0)
         check_range("selection.min_speed", self.min_speed, 0.0, 50.0, lo_open=True)
         check_range("selection.enter_probability", self.enter_probability, 0.0, 1.0, lo_open=True)
         check_range("selection.keep_probability", self.keep_probability, 0.0,
@@ -307,7 +328,8 @@ class InPathSelector(PairState):
                 ``"fused"`` with a map, and by ``"map"`` where the map gives no path).
             vy, y_var, vy_var: ``(E, F)`` the objects' estimated lateral velocity relative to
                 the ego [m/s], and the variances of ``y`` (used by ``"fused"`` and ``"map"``)
-                and ``vy`` (``"fused"``).
+                and ``vy`` (``"fused"``; ``vy`` and ``vy_var`` by every path with a
+                ``lateral_horizon``).
             dt: time since the last step [s] (the ``"fused"`` path's road filter).
             seen: ``(object_id, x, vx)``, each ``(E, F)``: what the road filter reads of the
                 objects (their ids, ranges and relative longitudinal velocities), when it is
@@ -355,7 +377,7 @@ class InPathSelector(PairState):
             object_id.astype(np.int64, copy=False), *grid.values(), *ego.values(), road_ids,
             road_x, road_vx, self._fused, float(dt), self._gyro_var, self._prm, self._theta,
             self._cov, mapped, road_path, self._map_prm, cfg.half_width, cfg.enter_probability,
-            cfg.keep_probability, cfg.stationary_speed, cfg.oncoming,
+            cfg.keep_probability, cfg.lateral_horizon, cfg.stationary_speed, cfg.oncoming,
             STATIONARY_POLICIES.index(cfg.stationary), self._ids, self._vouched, self._last,
             self.curvature, self.curvature_rate, self.offset, self.probability, self.in_path,
             self.selected,
@@ -367,7 +389,7 @@ class InPathSelector(PairState):
 def _select(
     object_id, x, y, ground, confirmed, vy, y_var, vy_var, speed, yaw, road, road_ids, road_x,
     road_vx, fused, dt, gyro_var, prm, road_theta, road_cov, mapped, road_path, map_prm,
-    half_width, enter, keep, still,
+    half_width, enter, keep, horizon, still,
     oncoming, policy, ids, vouched, last, kappa, rate, offset, prob, in_path, selected,
 ):  # pragma: no cover - compiled  # fmt: skip
     r""":meth:`InPathSelector.step` of every ego, one pass over its slots: the memory ``ids``,
@@ -377,7 +399,8 @@ def _select(
     ``rate`` (else ``kappa`` is given, the offset certain; with ``mapped`` the offset is
     from each ego's ``road_path`` with the localisation's variances ``map_prm[1:]``, its
     stations every ``map_prm[0]`` metres, ``kappa`` where it gives none);
-    ``offset`` :math:`= y - y_p(x)`, ``prob`` (0 for an object the stationary, oncoming
+    ``offset`` :math:`= y - y_p(x)`, ``prob`` (at the offset ``horizon`` seconds on, with
+    ``vy`` and ``vy_var``, where ``horizon > 0``; 0 for an object the stationary, oncoming
     and behind-the-ego rules exclude), ``in_path`` and ``selected`` (the nearest
     in-path slot, the first of equals; -1 for none) written.  ``policy``: the index of the
     stationary policy in :data:`STATIONARY_POLICIES`."""
@@ -414,6 +437,8 @@ def _select(
             else:
                 off, var = y[e, k] - 0.5 * kappa[e] * xk * xk, 0.0
             offset[e, k] = off
+            if horizon > 0.0:  # where its lateral motion takes it (module docstring)
+                off, var = off + vy[e, k] * horizon, var + horizon * horizon * vy_var[e, k]
             stationary = abs(ground[e, k]) < still
             ok = oid >= 0 and xk > 0.0
             if not oncoming:
