@@ -79,6 +79,14 @@ def select(config, x, y, road_path=None, curvature=0.0):
                     np.array([curvature]), road_path=road_path)  # fmt: skip
 
 
+def test_past_the_end_of_its_last_lane_the_path_goes_on_along_the_lane():
+    lane = np.array([[0.0, 0.0], [100.0, 0.0]])
+    h = 0.1  # the ego 10 m past the lane's end, 1 m to its left, heading 0.1 rad to it
+    got = sample([lane], 110.0, (110.0, 1.0), h)
+    want = (-1.0 - PATH_STATIONS * math.sin(h)) / math.cos(h)  # the lane's line, y = 0
+    np.testing.assert_allclose(got, want, atol=1e-9)
+
+
 def test_the_map_path_follows_a_lane_that_bends_away_where_the_curvature_at_the_ego_is_zero():
     """The ego's lane splits off to the left 50 m ahead; a car 100 m ahead straight on is on
     the lane it leaves, a car on the bend is the ego's."""
@@ -270,6 +278,8 @@ def test_highway_env_gives_the_lanes_ahead_as_the_map_on_merge_v0():
     from dataclasses import replace
 
     from acc_fusion.truth.highway.config import HighwayConfig
+    from acc_fusion.truth.highway.lane_path import NetworkPaths
+    from acc_fusion.truth.highway.lanes import LaneRows
     from acc_fusion.truth.highway.source import HighwaySource
     from acc_fusion.truth.highway.world import DEFAULT_FIELD, HighwayWorld
 
@@ -293,6 +303,15 @@ def test_highway_env_gives_the_lanes_ahead_as_the_map_on_merge_v0():
             world.advance()
             k += 1
     assert {("a", "b"), ("j", "k"), ("k", "b"), ("b", "c")} <= seen  # the ramp and the merge
+    paths = NetworkPaths(LaneRows(network))  # every lane, near its ends and past the last
+    for index, chain in _MERGE_CHAINS.items():
+        lane = network.get_lane(index)
+        for s, r, turn in ((5.0, 0.0, 0.0), (lane.length - 3.0, 1.2, 0.05),
+                           (lane.length + 5.0, -0.8, -0.04)):  # fmt: skip
+            front, heading = lane.position(s, r), lane.heading_at(min(s, lane.length)) + turn
+            got = paths.paths([index], [s], [front[0]], [front[1]], [heading])[0]
+            want = _dense_path(network, chain, front, heading)
+            np.testing.assert_allclose(got, want, atol=0.01, err_msg=f"{index} at {s} m")
     with HighwaySource(HighwayConfig("merge-v0", episodes=1, duration=1.0)) as src:
         assert HighwayWorld(src).frame().road_path.shape == (src.n_pairs, 0)  # no map asked
 

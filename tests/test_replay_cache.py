@@ -5,6 +5,8 @@ its windows; a changed file, an interrupted read and an unwritable folder."""
 from __future__ import annotations
 
 import json
+import os
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -105,15 +107,47 @@ def test_a_changed_file_is_parsed_again_and_a_stopped_read_leaves_nothing(tmp_pa
     assert len(list(folder.glob("*.arrow"))) == 2
 
 
-def test_an_unwritable_cache_folder_parses_with_a_warning(tmp_path, monkeypatch):
+def test_an_unwritable_cache_folder_parses_with_one_warning(tmp_path, monkeypatch):
+    monkeypatch.setattr(cache, "_FAILED", set())
     write_highd(simulate_traffic(lanes=1, duration=10.0, dt=0.04, seed=7), tmp_path, 1)
     blocker = tmp_path / "a_file"
     blocker.write_text("")
     monkeypatch.setenv("ACC_FUSION_REPLAY_CACHE", str(blocker / "cache"))  # under a file
     config = ReplayConfig("highd", str(tmp_path), slots=16)
-    with pytest.warns(RuntimeWarning, match="no binary copy of .* is kept"):
+    with pytest.warns(RuntimeWarning, match="no binary copy can be kept in") as caught:
         got = _replay(config)
+        ngsim = write_ngsim(simulate_traffic(duration=20.0, dt=0.1, seed=8), tmp_path / "n.csv")
+        recording = ReplayConfig("ngsim", str(ngsim)).open()[0]
+        assert len(recording.windows(500)) > 2
+        for f0, f1, _ in recording.windows(500):
+            recording.rows(f0, f1)
+    assert len([w for w in caught if w.category is RuntimeWarning]) == 1  # once per process
     assert got == _replay(replace(config, cache=False))
+
+
+def test_without_a_home_folder_the_replay_parses(tmp_path, monkeypatch):
+    monkeypatch.setattr(cache, "_FAILED", set())
+
+    def no_home():
+        raise RuntimeError("Could not determine home directory.")
+
+    monkeypatch.setattr(cache, "folder", no_home)
+    write_highd(simulate_traffic(lanes=1, duration=10.0, dt=0.04, seed=7), tmp_path, 1)
+    config = ReplayConfig("highd", str(tmp_path), slots=16)
+    with pytest.warns(RuntimeWarning, match="Could not determine home directory"):
+        assert _replay(config) == _replay(replace(config, cache=False))
+
+
+def test_a_killed_replays_unfinished_copy_is_removed_a_day_later(tmp_path, folder):
+    path = write_ngsim(simulate_traffic(lanes=1, duration=10.0, dt=0.1, seed=6), tmp_path / "n.csv")
+    folder.mkdir(parents=True)
+    old, new = folder / ".abc.arrow.x1.arrow", folder / ".def.arrow.x2.arrow"
+    old.write_bytes(b"half"), new.write_bytes(b"half")
+    day_ago = time.time() - cache.STALE - 60.0
+    os.utime(old, (day_ago, day_ago))
+    list(cache.stream(path, {"Frame_ID": "Frame_ID"}))
+    copies = [p for p in folder.glob("*.arrow") if not p.name.startswith(".")]
+    assert not old.exists() and new.exists() and len(copies) == 1
 
 
 def test_the_cache_setting_is_checked():

@@ -64,8 +64,9 @@ def add_parser(subparsers, summary: str) -> argparse.ArgumentParser:
         "--no-cache",
         action="store_true",
         help="parse the CSV recordings without keeping a binary copy of their columns (by "
-        "default the first replay of a file keeps one in ~/.cache/acc_fusion/replay, "
-        "$ACC_FUSION_REPLAY_CACHE, and later replays read it instead of parsing)",
+        "default the first replay of a file keeps one in $ACC_FUSION_REPLAY_CACHE, else "
+        "replay/ of $ACC_FUSION_CACHE, $XDG_CACHE_HOME/acc_fusion or ~/.cache/acc_fusion, and "
+        "later replays read it instead of parsing)",
     )
     p.add_argument(
         "--pair",

@@ -168,6 +168,9 @@ def sample_lanes(
                 x1, y1 = dx * c + dy * s, -dx * s + dy * c
                 if not have:
                     have, x0, y0, prev_x, prev_y = True, x1, y1, x1 - 1.0, y1
+                    if i == first and v == b - 1 and v > a:  # past its lane's end: along it
+                        dx, dy = vx[v - 1] - px[e], vy[v - 1] - py[e]
+                        prev_x, prev_y = dx * c + dy * s, -dx * s + dy * c
                     continue
                 if x1 < x0 - 1e-3:  # turning back: the stations left are not reached
                     j = stations.size
