@@ -292,7 +292,7 @@ def test_highway_env_gives_the_lanes_ahead_as_the_map_on_merge_v0():
             frame = world.frame()
             assert frame.road_path.shape == (src.n_pairs, PATH_STATIONS.size)
             assert np.all(np.isnan(frame.road_path[~src.active]))
-            for e in np.flatnonzero(src.active) if k % 4 == 0 else ():
+            for e in np.flatnonzero(src.active) if k % 5 == 0 else ():
                 v = src.vehicles[e]
                 front = v.position + 0.5 * v.LENGTH * np.array(
                     [np.cos(v.heading), np.sin(v.heading)]
