@@ -12,7 +12,8 @@ import pytest
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.sensors.localization import MapLocalization
 from acc_fusion.truth.objects import PATH_STATIONS
-from acc_fusion.truth.sumo.lane_path import RoutePaths, sample_lanes
+from acc_fusion.truth.road import sample_lanes
+from acc_fusion.truth.sumo.lane_path import RoutePaths
 from acc_fusion.truth.sumo.roadside import LaneTable, _lane_geometry
 from acc_fusion.warning.selection import InPathSelector, SelectionConfig
 

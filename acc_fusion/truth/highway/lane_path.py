@@ -21,7 +21,7 @@ In the ego frame
     ``merge-v0``'s sine ramp, curvature at most 0.005 1/m, a chord then strays under 3 mm).
     The polylines are laid into the ego frame and sampled at
     :data:`~acc_fusion.truth.objects.PATH_STATIONS` exactly as SUMO's lane shapes are
-    (:func:`acc_fusion.truth.sumo.lane_path.sample_lanes`), from the ego's front bumper
+    (:func:`acc_fusion.truth.road.sample_lanes`), from the ego's front bumper
     projected on its lane.  highway-env's vehicles leave the centreline while they change
     lanes, so there the path starts aside of the ego, by the bumper's offset from its lane's
     centre.
@@ -39,7 +39,8 @@ import numpy as np
 
 from acc_fusion.truth.highway.lanes import LaneRows
 from acc_fusion.truth.objects import PATH_STATIONS
-from acc_fusion.truth.sumo.lane_path import REACH, sample_lanes
+from acc_fusion.truth.road import sample_lanes
+from acc_fusion.truth.sumo.lane_path import REACH
 
 #: Largest gap [m] between a lane's end and the next lane's start for the path to go on.
 JOIN = 0.5

@@ -16,14 +16,9 @@ The lanes ahead
     the ego's lane changes.
 
 In the ego frame
-    The vertices of the sequence's shapes from the ego's lane position on, :math:`q_i`, are
-    taken into the ego frame (origin at the front bumper :math:`p_e`, :math:`x` along the
-    heading :math:`u_e`, :math:`y` along :math:`n_e`): :math:`x_i = (q_i - p_e)\cdot u_e,\ y_i
-    = (q_i - p_e)\cdot n_e`, and the path's lateral position at each station :math:`X_j` of
-    :data:`~acc_fusion.truth.objects.PATH_STATIONS` is the linear interpolation on the first
-    segment whose :math:`x` crosses :math:`X_j` going forward.  Where the path turns back
-    (a loop ramp tighter than the field) the stations it no longer reaches are NaN, and so
-    is the whole row of an ego on no lane.  SUMO's lane-based vehicles drive on their lane's
+    The sequence's shapes are laid into the ego frame and sampled at the stations by
+    :func:`acc_fusion.truth.road.sample_lanes` (NaN where the path turns back, and in the
+    whole row of an ego on no lane).  SUMO's lane-based vehicles drive on their lane's
     centreline, so the path starts at :math:`y = 0`.
 
 This is the ground truth of the map; the localisation error of an ego that matches itself to
@@ -35,9 +30,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from acc_fusion.truth.objects import PATH_STATIONS
+from acc_fusion.truth.road import sample_lanes
 from acc_fusion.truth.sumo.roadside import LaneTable
 
 #: How far past the ego the lane sequence reaches [m]: the last station of
@@ -137,57 +132,3 @@ class RoutePaths:
         sample_lanes(flat, counts, pos, front_x, front_y, heading, lanes.start, lanes.vx, lanes.vy,
                 lanes.vs, PATH_STATIONS, out)  # fmt: skip
         return out
-
-
-@njit(cache=True)
-def sample_lanes(
-    flat, counts, pos, px, py, heading, start, vx, vy, vs, stations, out
-):  # pragma: no cover - compiled
-    """Write each ego's path at ``stations`` into ``out (E, J)`` (module docstring; highway-env's
-    lanes too, :mod:`acc_fusion.truth.highway.lane_path`): its lanes
-    ``flat[counts[:e].sum():][:counts[e]]``, their vertices from lane position ``pos[e]`` on
-    the first, in the frame of the front bumper ``(px, py)`` and ``heading``."""
-    first = 0
-    for e in range(counts.size):
-        k = counts[e]
-        c, s = np.cos(heading[e]), np.sin(heading[e])
-        j, have = 0, False
-        x0, y0, prev_x, prev_y = 0.0, 0.0, -1.0, 0.0
-        for i in range(first, first + k):
-            g = flat[i]
-            a, b = start[g], start[g + 1]
-            for v in range(a, b):
-                qx, qy = vx[v], vy[v]
-                if i == first and not have and v < b - 1:  # the ego's own point on its lane
-                    if vs[v + 1] <= pos[e]:
-                        continue  # a segment behind the ego
-                    u = 0.0 if vs[v + 1] == vs[v] else (pos[e] - vs[v]) / (vs[v + 1] - vs[v])
-                    u = min(max(u, 0.0), 1.0)
-                    qx, qy = vx[v] + u * (vx[v + 1] - vx[v]), vy[v] + u * (vy[v + 1] - vy[v])
-                dx, dy = qx - px[e], qy - py[e]
-                x1, y1 = dx * c + dy * s, -dx * s + dy * c
-                if not have:
-                    have, x0, y0, prev_x, prev_y = True, x1, y1, x1 - 1.0, y1
-                    if i == first and v == b - 1 and v > a:  # past its lane's end: along it
-                        dx, dy = vx[v - 1] - px[e], vy[v - 1] - py[e]
-                        prev_x, prev_y = dx * c + dy * s, -dx * s + dy * c
-                    continue
-                if x1 < x0 - 1e-3:  # turning back: the stations left are not reached
-                    j = stations.size
-                while j < stations.size and stations[j] <= x1:
-                    if stations[j] < x0:  # behind the ego's own point
-                        out[e, j] = y0
-                    elif x1 > x0:
-                        out[e, j] = y0 + (stations[j] - x0) * (y1 - y0) / (x1 - x0)
-                    else:
-                        out[e, j] = y1
-                    j += 1
-                if x1 > x0:
-                    prev_x, prev_y = x0, y0
-                x0, y0 = x1, y1
-        # past the last vertex: straight on along the last segment
-        dx, dy = x0 - prev_x, y0 - prev_y
-        while have and j < stations.size and dx > 0.0:
-            out[e, j] = y0 + (stations[j] - x0) * dy / dx
-            j += 1
-        first += k
