@@ -13,8 +13,12 @@ from acc_fusion.metrics.summary import CAUSE_COUNTS, CAUSES, FALSE_CLASSES
 
 METHODS = ("radar", "infrared", "centralized", "federated")
 
+# One worker runs the study once (a session fixture: pytest tears a module one down whenever
+# another module's tests run between this module's on the worker).
+pytestmark = pytest.mark.xdist_group("world_cli")
 
-@pytest.fixture(scope="module")
+
+@pytest.fixture(scope="session")
 def written(tmp_path_factory):
     """One run of two scenes under two conditions, with ``--plot`` and ``--out``."""
     out = tmp_path_factory.mktemp("world")
