@@ -85,7 +85,8 @@ def main() -> None:
         replay(warm, 64, methods)  # compile or load the kernels
         first, steps = replay(folder, args.slots, methods, args.max_rows)
         seconds, again = replay(folder, args.slots, methods, args.max_rows)
-    assert again == steps
+    if again != steps:
+        raise SystemExit(f"the replays differ: {steps} pair-steps, then {again}")
     print(f"methods: {', '.join(methods)}; slots: {args.slots}")
     print(f"first replay: {steps} pair-steps in {first:.2f} s (parsing and keeping the binary "
           f"copies, pairing, packing, pipeline): {steps / first:.4g} pair-steps/s")  # fmt: skip

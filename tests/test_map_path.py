@@ -27,9 +27,9 @@ def sample(shapes: list[np.ndarray], pos: float, front, heading: float) -> np.nd
     vx, vy = (np.concatenate([s[:, i] for s in shapes]) for i in (0, 1))
     vs = np.concatenate([g[0] for g in geometry])
     out = np.full((1, PATH_STATIONS.size), np.nan)
-    sample_lanes(np.arange(len(shapes), dtype=np.int64), np.array([len(shapes)]), np.array([pos]),
-            np.array([front[0]]), np.array([front[1]]), np.array([heading]), start, vx, vy, vs,
-            PATH_STATIONS, out)  # fmt: skip
+    sample_lanes(np.arange(len(shapes), dtype=np.int64), np.array([len(shapes)]),
+                 np.array([pos]), np.array([front[0]]), np.array([front[1]]),
+                 np.array([heading]), start, vx, vy, vs, PATH_STATIONS, out)  # fmt: skip
     return out[0]
 
 

@@ -7,12 +7,11 @@ no frame counts in its meta data (NGSIM, mapped CSV) is parsed once to count its
 again for each window.  :func:`stream` parses a file once: as the batches of
 :func:`acc_fusion.truth.replay.csvfile.stream` go by, it writes them, the columns the
 recording reads and nothing else, to an Arrow IPC file (the Feather format) in the cache
-folder (:func:`folder`).  The file is renamed into
-place only once every batch is written, so a read that stops half-way (an error, an
-interrupt) leaves nothing behind; a killed process's unfinished copy, a hidden temporary
-file, is removed a day later by the next copy made there.  Every later
-read of the same columns memory-maps that file: the same float64 values, without parsing
-(about 15 ms for a 365 000-row highD recording against 0.2 s).
+folder (:func:`folder`).  The file is renamed into place only once every batch is written,
+so a read that stops half-way (an error, an interrupt) leaves nothing behind; a killed
+process's unfinished copy, a hidden temporary file, is removed a day later by the next copy
+made there.  Every later read of the same columns memory-maps that file: the same float64
+values, without parsing (about 15 ms for a 365 000-row highD recording against 0.2 s).
 
 The copy's name is a hash of what it copies: the file's resolved path, size, modification
 and change times, inode and first and last MiB, and the columns, types and row filter read
@@ -118,7 +117,8 @@ def _copied(path, target, numbers, strings, where) -> Iterator[dict[str, np.ndar
         sink = os.fdopen(fd, "wb")
         writer = pa.ipc.new_file(sink, schema)
     except OSError as exc:
-        writer = _failed(target.parent, exc)
+        _failed(target.parent, exc)
+        writer = None
     done = False
     try:
         for out in csvfile.stream(path, numbers, strings=strings, where=where):
@@ -128,7 +128,8 @@ def _copied(path, target, numbers, strings, where) -> Iterator[dict[str, np.ndar
                 try:
                     writer.write_batch(pa.record_batch(columns, schema=schema))
                 except OSError as exc:
-                    writer = _failed(target.parent, exc)
+                    _failed(target.parent, exc)
+                    writer = None
             yield out
         if writer is not None:
             try:

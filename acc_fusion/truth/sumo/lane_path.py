@@ -129,6 +129,6 @@ class RoutePaths:
         flat = np.concatenate(sequences) if n else np.zeros(0, np.int64)
         out = np.full((n, PATH_STATIONS.size), np.nan)
         lanes = self._lanes
-        sample_lanes(flat, counts, pos, front_x, front_y, heading, lanes.start, lanes.vx, lanes.vy,
-                lanes.vs, PATH_STATIONS, out)  # fmt: skip
+        sample_lanes(flat, counts, pos, front_x, front_y, heading, lanes.start, lanes.vx,
+                     lanes.vy, lanes.vs, PATH_STATIONS, out)  # fmt: skip
         return out
