@@ -6,9 +6,11 @@ oracle) is below imminent. Of the onsets on another vehicle than the true lead (
 ``adjacent``) it prints the median range and, where the source gives the map's path
 (``--set world.selection.path=map``), how far the vehicle truly was from that path: outside the
 corridor, the track's lateral estimate put it in; inside, the path is right but SUMO's leader is
-another vehicle. Of the onsets on the true lead it prints the estimated minus the true lead
-acceleration and the lead's true jerk over the last 0.5 s (one step at least): lag at a brake
-release shows as a positive jerk, noise at the rule's threshold as a jerk about 0. Onsets are
+another vehicle; where the path does not reach the vehicle's range (the ego on no lane, or its
+lane turning back before), neither. Of the onsets on the true lead it prints the estimated
+minus the true lead acceleration and the lead's true jerk over the last 0.5 s (one step at
+least): lag at a brake release shows as a positive jerk, noise at the rule's threshold as a
+jerk about 0. Onsets are
 counted per step of the alert level, so a flickering alert counts each time it rises (the
 alert classes merge them into alerts). The last line is ``adjacent=<k> on_lead=<m>``.
 
@@ -100,11 +102,12 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.median(adjacent[:, 0]):.1f} m")  # fmt: skip
         off = np.abs(adjacent[:, 1])
         if np.isfinite(off).any():
-            out = off > half
+            out, known = off > half, np.isfinite(off)
             median = np.median(off[out]) if out.any() else 0.0
             print(f"  truly outside the corridor (|offset from the map's path| > {half} m): "
                   f"{int(out.sum())}, median offset {median:.1f} m; "
-                  f"inside: {int((~out).sum())}")  # fmt: skip
+                  f"inside: {int((known & ~out).sum())}; where the map's path does not reach: "
+                  f"{int((~known).sum())}")  # fmt: skip
     if len(lead):
         jerk = lead[:, 1]
         print(f"on the true lead: {len(lead)} onsets; estimated - true lead acceleration, median "

@@ -102,6 +102,27 @@ def test_the_map_path_follows_a_lane_that_bends_away_where_the_curvature_at_the_
     assert select(config, [100.0], [0.5 * 100.0**2 / 400.0], unknown, 1 / 400.0)[0] == 0
 
 
+def test_where_the_map_path_turns_back_an_object_beyond_its_reach_is_not_in_it():
+    """A loop ramp of 30 m radius: the path reaches x = 30 m and turns back.  A car 45 m
+    ahead on the circle of the lane's curvature at the ego (what an ego on no lane falls back
+    to) is where the ego's lane never goes; nearer than the next station, the path goes on
+    along its last interval."""
+    loop = sample([arc(30.0, 0.0, 3.0)], 0.0, (0.0, 0.0), 0.0)[None, :]
+    config, kappa = SelectionConfig(path="map", stationary="all"), 1 / 400.0
+    on_circle = 0.5 * kappa * 45.0**2
+    assert select(config, [45.0], [on_circle], loop, kappa)[0] == -1
+    unknown = np.full_like(loop, np.nan)  # an ego on no lane: the circle, as before
+    assert select(config, [45.0], [on_circle], unknown, kappa)[0] == 0
+    near = loop[0, 3] + 0.5 * (loop[0, 3] - loop[0, 2])  # 35 m, along the 20-30 m interval
+    assert select(config, [35.0], [near], loop, kappa)[0] == 0
+    assert select(config, [35.0], [near - 3.5], loop, kappa)[0] == -1
+    # a lane that turns back before the first station: the circle short of it, nothing beyond
+    tight = np.full_like(loop, np.nan)
+    tight[0, 0] = 0.0
+    assert select(config, [5.0], [0.5 * kappa * 25.0], tight, kappa)[0] == 0
+    assert select(config, [45.0], [on_circle], tight, kappa)[0] == -1
+
+
 def test_the_map_path_needs_a_source_that_gives_it_and_its_settings_are_checked():
     with pytest.raises(InputError, match="SUMO, highway-env and the scripted scenes give"):
         select(SelectionConfig(path="map"), [50.0], [0.0])

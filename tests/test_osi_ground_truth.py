@@ -6,6 +6,7 @@ atomic trace files; bad input in one sentence."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -66,7 +67,7 @@ def _assert_round_trip(path: Path, frames: list[ObjectFrame], e: int) -> None:
         for name in OBJECT_FLOATS:
             np.testing.assert_allclose(getattr(g, name)[0], getattr(f, name)[e, v], rtol=0,
                                        atol=TOL, err_msg=name)  # fmt: skip
-        for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature"):
+        for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature", "ego_shift"):
             assert abs(getattr(g, name)[0] - getattr(f, name)[e]) <= TOL, name
         src.advance()
     assert src.done and not src.active[0]
@@ -169,6 +170,30 @@ def test_the_host_is_dead_reckoned_and_the_extension_is_exact():
     (gt2,) = enc.encode(_frame(2.0, 12.0, 0.2, x=[28.0]), np.array([0]))
     host = next(m for m in gt2.moving_object if m.id.value == HOST_ID_BASE)
     assert (host.base.position.x, host.base.orientation.yaw) == (-2.25, 0.0)
+
+
+def test_a_hosts_sideways_jump_moves_its_pose_and_is_read_back(tmp_path):
+    """SUMO's lane change within a step: the host's pose jumps 3.5 m to the left of its
+    heading, the jump travels in the host's extension, and the reader gives it back."""
+    frames = [_frame(t, 10.0, 0.0, x=[30.0], speed=[10.0]) for t in (0.0, 1.0, 2.0)]
+    frames[1] = replace(frames[1], ego_shift=np.array([3.5]))
+    (messages,) = _encode_all(frames, 1)
+    hosts = [next(m for m in gt.moving_object if m.id.value == HOST_ID_BASE) for gt in messages]
+    np.testing.assert_allclose([h.base.position.y for h in hosts], [0.0, 3.5, 3.5])
+    np.testing.assert_allclose([h.base.position.x for h in hosts], [-2.25, 7.75, 17.75])
+    assert [read_extension(h.source_reference) for h in hosts] == [None, {"ego_shift": "3.5"},
+                                                                   None]  # fmt: skip
+    _assert_round_trip(write_ground_truth_trace(tmp_path / "jump.mcap", messages), frames, 0)
+    # turning at 0.2 rad/s, the jump at t = 2 s is along the left normal of the heading at the
+    # step's start (0.2 rad), after the trapezoid's 10 m along the mean heading (0.3 rad)
+    turning = [_frame(t, 10.0, 0.2, x=[30.0], speed=[10.0]) for t in (0.0, 1.0, 2.0)]
+    turning[2] = replace(turning[2], ego_shift=np.array([3.5]))
+    (messages,) = _encode_all(turning, 1)
+    host = next(m for m in messages[2].moving_object if m.id.value == HOST_ID_BASE)
+    front = (10 * math.cos(0.1) + 10 * math.cos(0.3) - 3.5 * math.sin(0.2),
+             10 * math.sin(0.1) + 10 * math.sin(0.3) + 3.5 * math.cos(0.2))  # fmt: skip
+    assert host.base.position.x == pytest.approx(front[0] - 2.25 * math.cos(0.4))
+    assert host.base.position.y == pytest.approx(front[1] - 2.25 * math.sin(0.4))
 
 
 def test_stationary_kinds_map_to_osi_types():

@@ -403,6 +403,47 @@ def test_a_lane_change_gives_lateral_speed_for_the_lane_change_duration():
     assert max(map(len, moving.values())) >= round(LANE_CHANGE_DURATION / dt)
 
 
+def test_an_egos_lane_change_is_its_sideways_shift_and_every_object_moves_by_it():
+    """On the straight motorway an ego that changes lanes within a step sees every object that
+    kept its lane move sideways by minus its ``ego_shift``, the distance between the two lanes'
+    centrelines; an ego that kept its lane has no shift and sees them keep their offsets."""
+    config = SumoConfig(str(STRAIGHT), end=120, seed=3)
+    shifted, kept = [], []
+    with SumoSource(config) as src:
+        world = SumoWorld(src)
+        world.advance()
+        a, ids_a = world.frame(), list(src.vehicle_ids)
+        while not world.done:
+            world.advance()
+            b, ids_b = world.frame(), list(src.vehicle_ids)
+            for e in range(min(a.n_egos, b.n_egos)):
+                if ids_b[e] is None or ids_a[e] != ids_b[e]:
+                    continue
+                before = dict(zip(a.object_id[e][a.valid[e]], a.y[e][a.valid[e]], strict=True))
+                still = b.valid[e] & (b.lateral_speed[e] == 0)  # not changing lanes themselves
+                moved = [b.y[e, k] - before[o] for k, o in zip(np.flatnonzero(still),
+                         b.object_id[e][still], strict=True) if o in before]  # fmt: skip
+                if moved:
+                    (shifted if b.ego_shift[e] else kept).append((b.ego_shift[e], moved))
+            a, ids_a = b, ids_b
+    assert len(shifted) >= 3, "too few egos changed lanes in 120 s"
+    for shift, moved in shifted:
+        assert abs(shift) == pytest.approx(3.5)  # the straight net's lanes are 3.5 m wide
+        np.testing.assert_allclose(moved, -shift, atol=TOL)
+    assert all(np.allclose(moved, 0.0, atol=TOL) for _, moved in kept)
+
+
+def test_a_simulation_whose_lane_changes_take_time_gives_no_shift():
+    config = SumoConfig(str(STRAIGHT), end=40, seed=3, extra_args=("--lanechange.duration", "3"))
+    with SumoSource(config) as src:
+        world = SumoWorld(src)
+        shifts = []
+        while not world.done:
+            world.advance()
+            shifts.append(np.abs(world.frame().ego_shift).max(initial=0.0))
+    assert not world.objects._jumps and max(shifts) == 0.0
+
+
 def test_sumo_world_command_prints_the_tables_and_every_warning_has_a_cause(tmp_path, capsys):
     args = ["sumo", "--open-loop", "--net", "motorway", "--end", "45", "--warmup", "60",
             "--conditions", "day",

@@ -135,6 +135,31 @@ def test_ego_motion_compensation_keeps_a_stationary_object_still(rng, compensate
         assert len(errors) < 20 or np.mean(speeds) > 5.0  # it sees the post sweep sideways
 
 
+@pytest.mark.parametrize("told", [True, False])
+def test_a_track_follows_the_egos_sideways_jump_only_when_told_it(rng, told):
+    """SUMO moves an ego into the next lane within one step: the car it follows, 40 m ahead,
+    is 3.5 m to its right at once.  Told the jump (``ego_shift``, as the ego's odometry would
+    have followed a real lane change), the tracker keeps the car's track; not told, the
+    detection falls outside the gate and a new track begins."""
+    before = Scene([np.array([[7, 40.0, 0.0, 20.0, 0.0]])], np.array([20.0]), np.zeros(1))
+    after = Scene([np.array([[7, 40.0, -3.5, 20.0, 0.0]])], np.array([20.0]), np.zeros(1))
+    tracker = Tracker("radar", TrackerConfig(), n_egos=1)
+    ids, ys = [], []
+    for i in range(40):
+        scene, jump = (before, 0.0) if i < 20 else (after, 3.5 if i == 20 else 0.0)
+        shift = np.array([jump if told else 0.0])
+        tracks = tracker.step(detect(scene, i * DT, "radar", rng), scene.speed, scene.yaw_rate,
+                              DT, ego_shift=shift)  # fmt: skip
+        if i >= 10:
+            ids.append(set(tracks.track_id[tracks.confirmed].tolist()))
+            ys.append(tracks.state[tracks.confirmed][:, 2])
+    if told:
+        assert all(k == ids[0] and len(k) == 1 for k in ids)
+        assert abs(ys[-1][0] + 3.5) < 0.3
+    else:
+        assert ids[-1] and ids[-1].isdisjoint(ids[0])
+
+
 def test_the_ego_speed_change_is_compensated(rng):
     """An ego speeding up at 3 m/s² passes a parked car: its relative velocity changes by 6 m/s
     in 2 s, which the compensation takes from the ego's speeds (the track's ground speed

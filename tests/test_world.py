@@ -183,6 +183,31 @@ def test_the_world_warning_retimes_for_a_braking_driver_as_the_1d_one_does():
     assert with_signal.nuisance < without.nuisance
 
 
+def test_the_trackers_take_each_frames_sideways_shift(monkeypatch):
+    """The ego's sideways jump of each frame (``ObjectFrame.ego_shift``, SUMO's lane change)
+    reaches both trackers at that frame's step."""
+    from acc_fusion.fusion.tracking.tracker import Tracker
+    from acc_fusion.truth.scenes import SceneSource
+
+    frame, step, seen = SceneSource.frame, Tracker.step, []
+
+    def shifted(self):
+        f = frame(self)
+        return replace(f, ego_shift=np.full(f.n_egos, 0.25 + f.t))
+
+    def spy(self, *args, ego_shift=None, **kw):
+        seen.append((self.sensor, ego_shift.copy()))
+        return step(self, *args, ego_shift=ego_shift, **kw)
+
+    monkeypatch.setattr(SceneSource, "frame", shifted)
+    monkeypatch.setattr(Tracker, "step", spy)
+    cfg = SimConfig(runs=3, seed=4)
+    simulate_world(replace(cfg, world=replace(cfg.world, scene="lead_brakes")))
+    assert len(seen) >= 20 and {s for s, _ in seen} == {"radar", "infrared"}
+    shifts = np.array([shift[0] for _, shift in seen])
+    assert np.all(shifts >= 0.25) and np.unique(shifts).size == len(seen) // 2
+
+
 def test_the_pipeline_reading_views_of_its_stages_equals_it_reading_copies(monkeypatch):
     """The 2-D pipeline reads the trackers' and estimators' outputs as views of their arrays
     (``copy=False``); forced to take copies it gives the same estimates and levels at every

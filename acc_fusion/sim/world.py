@@ -300,7 +300,7 @@ class WorldPerception(PairState):
             self.forget(reassigned, wheel)
         v_ego, bias = self.ego.step(accel, wheel)
         tracks = [
-            tr.step(d, v_ego, yaw, dt, copy=False)  # read within this step
+            tr.step(d, v_ego, yaw, dt, copy=False, ego_shift=frame.ego_shift)  # read in this step
             for tr, d in zip(self.trackers, detections, strict=True)
         ]
         fused = self.associator.step(*tracks)

@@ -129,6 +129,12 @@ class ObjectFrame:
             map gives it, for the ``"map"`` path of :mod:`acc_fusion.warning.selection`;
             NaN in the rows of egos on no lane; ``(E, 0)`` (the default, ``None``) when the
             source gives no map.
+        ego_shift: ``(E,)`` how far [m] the ego moved sideways over the step that ended at
+            ``t`` beyond the arc its speed and yaw rate describe, left positive, in the ego
+            frame at the step's start: SUMO moves a vehicle into the next lane within one
+            step (:mod:`acc_fusion.truth.sumo.objects`), which a real car does over seconds
+            with its odometry following; zeros (the default, ``None``) for sources whose egos
+            move continuously.
     """
 
     t: float
@@ -156,13 +162,16 @@ class ObjectFrame:
     lead: np.ndarray
     lateral_speed: np.ndarray = None  # type: ignore[assignment]
     road_path: np.ndarray = None  # type: ignore[assignment]
+    ego_shift: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         valid = np.asarray(self.valid)
         if valid.ndim != 2 or valid.dtype != np.bool_:
             raise InputError(f"valid must be a boolean array of shape (E, M), got {valid.shape}")
         e, m = valid.shape
-        for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature"):
+        if self.ego_shift is None:
+            object.__setattr__(self, "ego_shift", np.zeros(e))
+        for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature", "ego_shift"):
             object.__setattr__(self, name, check_array(name, getattr(self, name), (e,)))
         if self.lateral_speed is None:
             object.__setattr__(self, "lateral_speed", np.zeros((e, m)))

@@ -252,12 +252,27 @@ def map_offset(row, step, x, y, y_var, lat_var, heading_var, kappa):  # pragma: 
     between, along the last interval beyond), and its variance :math:`\sigma_y^2 +
     \sigma_{e_y}^2 + x^2 \sigma_{e_\psi}^2` (``lat_var``, ``heading_var``: the
     localisation's, :mod:`acc_fusion.sensors.localization`), as a pair.  Where the row gives
-    no path at ``x`` (NaN: the ego on no lane, or a loop the path does not reach), the
-    circle of the lane's curvature ``kappa`` at the ego, as the ``"lane"`` path, the offset's
-    variance then the track's alone."""
+    no path at ``x``:
+
+    - the ego on no lane (the whole row NaN): the circle of the lane's curvature ``kappa`` at
+      the ego, as the ``"lane"`` path, the offset's variance then the track's alone;
+    - the path turned back before ``x`` (a loop tighter than the field: the stations after
+      the last one it reaches, :math:`X_L`, are NaN, and its farthest point lies before
+      :math:`X_L` + ``step``): an object at or beyond :math:`X_L` + ``step`` is where the
+      ego's lane never goes, an infinite offset; nearer, the path goes on along its last
+      interval (the circle where the path reaches no station past the ego's)."""
     u = max(x, 0.0) / step
     i = min(int(u), row.size - 2)
     yp = row[i] + (u - i) * (row[i + 1] - row[i])
     if not math.isfinite(yp):
-        return y - 0.5 * kappa * x * x, y_var
+        if not math.isfinite(row[0]):  # the ego on no lane
+            return y - 0.5 * kappa * x * x, y_var
+        last = 0  # the last station the path reaches before it turns back
+        while last + 1 < row.size and math.isfinite(row[last + 1]):
+            last += 1
+        if u >= last + 1:  # beyond the farthest the path goes
+            return math.inf, y_var
+        if last == 0:
+            return y - 0.5 * kappa * x * x, y_var
+        yp = row[last] + (u - last) * (row[last] - row[last - 1])
     return y - yp, y_var + lat_var + x * x * heading_var

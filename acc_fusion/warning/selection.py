@@ -35,7 +35,8 @@ Path prediction (``path``)
     SUMO's sources, highway-env and the scripted scenes), placed with the error of the ego's
     localisation on the map (:mod:`acc_fusion.sensors.localization`): the offset's variance is
     the track's plus :math:`\sigma_{e_y}^2 + x^2\sigma_{e_\psi}^2`
-    (:func:`acc_fusion.warning.path.map_offset`).
+    (:func:`acc_fusion.warning.path.map_offset`; an object beyond where the ego's lane turns
+    back is not on it).
     It follows the lanes that split from or merge into the ego's, which no curvature at
     the ego, measured or estimated, describes.
 

@@ -44,12 +44,13 @@ def cv_model(dt, q):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def ego_transform(dt, speed0, speed1, yaw_rate, f, a, b):  # pragma: no cover - compiled
+def ego_transform(dt, speed0, speed1, yaw_rate, shift, f, a, b):  # pragma: no cover - compiled
     r"""The affine map :math:`x \mapsto A x + b` of a track's state over one step, into ``a``
     and ``b``: the ego-motion compensation :math:`x_c = T x + c` followed by the CV
     transition, :math:`A = F T`, :math:`b = F c` (tracker module docstring);
-    ``speed0``/``speed1``: the ego's speed at the start/end of the step.  :math:`T` rotates
-    the positions and the velocities by :math:`-\varphi`; the products are written out."""
+    ``speed0``/``speed1``: the ego's speed at the start/end of the step, ``shift`` its
+    sideways jump [m] over it.  :math:`T` rotates the positions and the velocities by
+    :math:`-\varphi`; the products are written out."""
     phi = yaw_rate * dt
     cs, sn = np.cos(phi), np.sin(phi)
     if abs(phi) < 1e-6:  # the arc's chord, to second order
@@ -57,7 +58,7 @@ def ego_transform(dt, speed0, speed1, yaw_rate, f, a, b):  # pragma: no cover - 
     else:
         along, side = sn / phi, (1.0 - cs) / phi
     step = 0.5 * (speed0 + speed1) * dt
-    dx, dy = step * along, step * side
+    dx, dy = step * along, step * side + shift
     c0 = -(cs * dx + sn * dy) + speed1 * dt
     c1 = cs * speed0 - speed1
     c2 = -(-sn * dx + cs * dy)
@@ -153,7 +154,7 @@ UNNUMBERED = -2
 def track_step(
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
     rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, growth, det_object,
-    online, speed0, speed1, yaw_rate, dt, params, next_id, widest,
+    online, speed0, speed1, yaw_rate, shift, dt, params, next_id, widest,
 ):  # pragma: no cover - compiled  # fmt: skip
     """One frame of every ego's tracks, in place (slot arrays ``(E, T, ...)``; the frame's
     detections flat, ego ``e``'s in ``rows[e]:rows[e + 1]``, at most ``widest`` per ego;
@@ -163,8 +164,8 @@ def track_step(
     conv = converted(rng, azimuth, range_std, azimuth_std)
     _track_egos(0, valid.shape[0], x, p, valid, confirmed, track_id, detection, hits, misses,
                 scans, object_id, age, coast, rows, conv, rng, azimuth, range_std, growth,
-                range_rate, range_rate_std, det_object, online, speed0, speed1, yaw_rate, dt,
-                params, widest)  # fmt: skip
+                range_rate, range_rate_std, det_object, online, speed0, speed1, yaw_rate, shift,
+                dt, params, widest)  # fmt: skip
     number_new(track_id, next_id)
 
 
@@ -172,7 +173,7 @@ def track_step(
 def track_step_parallel(
     x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age, coast,
     rows, rng, azimuth, range_rate, range_std, azimuth_std, range_rate_std, growth, det_object,
-    online, speed0, speed1, yaw_rate, dt, params, next_id, widest, chunks,
+    online, speed0, speed1, yaw_rate, shift, dt, params, next_id, widest, chunks,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`track_step` on the cores, the egos in ``chunks`` blocks, one thread each at a
     time: the egos' tracks are independent, and the new tracks are numbered after, in the
@@ -183,7 +184,7 @@ def track_step_parallel(
         _track_egos(c * n // chunks, (c + 1) * n // chunks, x, p, valid, confirmed, track_id,
                     detection, hits, misses, scans, object_id, age, coast, rows, conv, rng,
                     azimuth, range_std, growth, range_rate, range_rate_std, det_object, online,
-                    speed0, speed1, yaw_rate, dt, params, widest)  # fmt: skip
+                    speed0, speed1, yaw_rate, shift, dt, params, widest)  # fmt: skip
     number_new(track_id, next_id)
 
 
@@ -201,7 +202,7 @@ def number_new(track_id, next_id):  # pragma: no cover - compiled
 def _track_egos(
     lo, hi, x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id, age,
     coast, rows, conv, rng, azimuth, range_std, growth, range_rate, range_rate_std, det_object,
-    online, speed0, speed1, yaw_rate, dt, params, widest,
+    online, speed0, speed1, yaw_rate, shift, dt, params, widest,
 ):  # pragma: no cover - compiled  # fmt: skip
     """The frame of egos ``lo`` to ``hi`` (:func:`track_step`; ``conv``: the detections'
     converted positions and covariances at the measured range, :func:`converted`; with a
@@ -213,9 +214,10 @@ def _track_egos(
         borrow((x, p, valid, confirmed, track_id, detection, hits, misses, scans, object_id,
                 age, coast))
     )  # fmt: skip
-    rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate = borrow(
-        (rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate)
-    )
+    rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate, shift = (
+        borrow((rows, azimuth, range_rate, range_rate_std, det_object, speed0, speed1, yaw_rate,
+                shift))
+    )  # fmt: skip
     rng, range_std = borrow((rng, range_std))
     zx, zy, rxx, rxy, ryy = borrow(conv)
     cov = np.empty(3)  # one pair's (rxx, rxy, ryy)
@@ -234,7 +236,7 @@ def _track_egos(
     scratch_owner = scratch_arrays(n_slots, k_max)
     scratch = borrow(scratch_owner)
     for e in range(lo, hi):
-        ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], f, a, b)
+        ego_transform(dt, speed0[e], speed1[e], yaw_rate[e], shift[e], f, a, b)
         n_t = 0
         for t in range(n_slots):
             detection[e, t] = -1

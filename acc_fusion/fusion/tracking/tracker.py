@@ -36,12 +36,17 @@ Ego-motion compensation
     rotation of position and velocity, and :math:`P_c = \mathcal T P \mathcal T^\top`.  The CV
     prediction :math:`\mathbf p_c + \mathbf v_c T` then equals :math:`R(\mathbf p + \mathbf w T
     - \mathbf d)` with :math:`\mathbf w = \mathbf v + \mathbf u_0` the object's ground velocity:
-    exact for an object of constant ground velocity and an ego on such an arc.  ``Q`` is the
+    exact for an object of constant ground velocity and an ego on such an arc.  An ego that
+    also moved sideways by :math:`\delta` over the step without turning (SUMO's lane change
+    within one step, :attr:`ObjectFrame.ego_shift
+    <acc_fusion.truth.objects.ObjectFrame.ego_shift>`) has :math:`\mathbf d + [0,
+    \delta]^\top` for :math:`\mathbf d`: the jump its odometry would have followed over a
+    real lane change.  ``Q`` is the
     same in every rotated frame (equal on both axes), so its order does not matter.  The
     approximations: the ego's speed and yaw rate are known exactly (their errors do not enter
     :math:`P`), the ego's path over a step is a circular arc, the speed changes linearly, and a
     manoeuvring object's acceleration is white noise of density :math:`q`.  On a straight road
-    at constant ego speed the compensation is the identity.
+    at constant ego speed and without a shift the compensation is the identity.
 
 Measurement: converted-measurement Kalman filter
     A detection :math:`(r, \theta)` (range, azimuth left positive) with declared standard
@@ -317,19 +322,22 @@ class Tracker(PairState):
         ego_yaw_rate: np.ndarray,
         dt: float,
         copy: bool = True,
+        ego_shift: np.ndarray | None = None,
     ) -> Tracks:
         """Advance every ego's tracks by ``dt`` seconds to ``detections.t`` and take the frame.
 
         ``ego_speed (E,)`` [m/s] and ``ego_yaw_rate (E,)`` [rad/s, left positive] are the ego's
-        at the frame's time (the speed of the previous call is the step's start); call it at
-        every frame, also when the sensor is offline.  The :class:`Tracks` are a copy, or with
-        ``copy`` false views of the tracker's arrays, which its next step changes (for a
-        caller that reads them before: the 2-D pipeline).
+        at the frame's time (the speed of the previous call is the step's start), and
+        ``ego_shift (E,)`` [m, left positive] its sideways jump over the step (module
+        docstring; default none); call it at every frame, also when the sensor is offline.
+        The :class:`Tracks` are a copy, or with ``copy`` false views of the tracker's arrays,
+        which its next step changes (for a caller that reads them before: the 2-D pipeline).
         """
         det = self._check(detections)
         e = self.n_egos
         speed = check_array("ego_speed", ego_speed, (e,))
         yaw = check_array("ego_yaw_rate", ego_yaw_rate, (e,))
+        shift = np.zeros(e) if ego_shift is None else check_array("ego_shift", ego_shift, (e,))
         dt = check_range("dt", dt, 0.0, 1e3)
         speed0 = np.where(np.isnan(self._speed), speed, self._speed)
         self._speed = speed.copy()
@@ -341,7 +349,8 @@ class Tracker(PairState):
             det.range, det.azimuth, det.range_rate, det.range_std, det.azimuth_std,
             det.range_rate_std, det.range_std_growth, det.object_id, bool(det.online),
             np.ascontiguousarray(speed0),
-            np.ascontiguousarray(speed), np.ascontiguousarray(yaw), dt, self._params,
+            np.ascontiguousarray(speed), np.ascontiguousarray(yaw),
+            np.ascontiguousarray(shift), dt, self._params,
             self._next_id, widest,
         )  # fmt: skip
         chunks = blocks(e, PARALLEL_EGOS)

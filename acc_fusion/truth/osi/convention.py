@@ -27,7 +27,8 @@ This project's extension
     :data:`EXTENSION_TYPE`, one identifier ``name=value`` each (floats as Python's ``repr``,
     exact): ``rcs`` [dBsm], ``thermal_contrast`` [K], ``lateral_speed`` [m/s], ``kind`` (an
     :class:`~acc_fusion.truth.objects.ObjectKind` name), ``index`` (the object's place in its
-    ego's row) and ``lead`` (``1`` on the true in-path lead).
+    ego's row) and ``lead`` (``1`` on the true in-path lead); on the host, ``ego_shift`` [m]
+    where it is not 0 (:attr:`~acc_fusion.truth.objects.ObjectFrame.ego_shift`).
 """
 
 from __future__ import annotations

@@ -12,7 +12,9 @@ The host
     speed difference over the step (0 at the first message; the scripted sources' definition,
     :attr:`~acc_fusion.truth.frame.TruthFrame.ego_accel`); ``ego_yaw_rate``:
     ``base.orientation_rate.yaw``, else the wrapped heading change over the step (SUMO's rule,
-    :mod:`acc_fusion.truth.sumo.objects`).  Sizes missing from a trace (zero) are
+    :mod:`acc_fusion.truth.sumo.objects`); ``ego_shift``: the extension's, else 0 (another
+    producer's host that jumps sideways between two messages is not told apart from one
+    that drives; assumption).  Sizes missing from a trace (zero) are
     :data:`~acc_fusion.truth.osi.convention.HOST_SIZE` for the host and the scenes'
     :data:`~acc_fusion.truth.scenes.SIGNATURES` for objects (assumption).
 
@@ -104,6 +106,7 @@ class HostRow:
     ego_accel: float
     ego_yaw_rate: float
     road_curvature: float
+    ego_shift: float
     heading: float
     floats: np.ndarray  # (len(OBJECT_FLOATS), M)
     object_id: np.ndarray
@@ -183,7 +186,8 @@ def decode(gt, index: int, previous: HostRow | None = None) -> HostRow:
     hit = vehicle & (np.abs(cx + 0.5 * length) < 0.5 * (length + ln))
     hit &= np.abs(cy) < 0.5 * (width + wd)
     closing = v - gx[hit]
-    return HostRow(t, v, accel, yaw_rate, kappa, psi, floats,
+    shift = float((read_extension(host.source_reference) or {}).get("ego_shift", 0.0))
+    return HostRow(t, v, accel, yaw_rate, kappa, shift, psi, floats,
                    np.array([r.object_id for r in rows], dtype=np.int64), kind, lane, lead,
                    float(closing.max()) if closing.size else math.nan, marked)  # fmt: skip
 

@@ -15,7 +15,11 @@ The ego's global pose
         \bar\psi = \tfrac12(\psi_0 + \psi_1),
 
     starting at the origin with heading 0 at the ego's first frame (and after
-    :meth:`GroundTruthEncoder.reset`).  The road is taken flat: the ego's wheels at ``z = 0``.
+    :meth:`GroundTruthEncoder.reset`), plus the frame's sideways jump
+    :attr:`~acc_fusion.truth.objects.ObjectFrame.ego_shift` :math:`\delta` along the left
+    normal of :math:`\psi_0` (SUMO's lane change within one step): :math:`p_1 \mathrel{+}=
+    \delta\,(-\sin\psi_0, \cos\psi_0)`.  The road is taken flat: the ego's wheels at
+    ``z = 0``.
 
 The host (``GroundTruth.host_vehicle_id``; one ``osi3.MovingObject`` of type vehicle)
     ``base.position``: the bounding-box centre :math:`p - (L/2)u` at height :math:`H/2`
@@ -24,7 +28,8 @@ The host (``GroundTruth.host_vehicle_id``; one ``osi3.MovingObject`` of type veh
     along the heading, the centripetal part along the left normal :math:`n`);
     ``base.orientation_rate.yaw`` :math:`\omega`; ``base.dimension`` :math:`(L, W, H)`
     (``host_length``, ``host_width``, ``host_height``; default
-    :data:`~acc_fusion.truth.osi.convention.HOST_SIZE`).
+    :data:`~acc_fusion.truth.osi.convention.HOST_SIZE`); a jump :math:`\delta \ne 0` also in
+    the extension (``ego_shift``), for the reader.
 
 Objects (every valid slot of the ego's row)
     ``VEHICLE`` and ``PARKED`` as ``osi3.MovingObject`` of type vehicle, the others as
@@ -132,8 +137,9 @@ class GroundTruthEncoder:
             x, y, psi = self._pose[:, :n]
             v0, w0 = self._last[:, :n]
             psi1 = psi + 0.5 * (w0 + w1) * dt
-            mid, step = 0.5 * (psi + psi1), 0.5 * (v0 + v1) * dt
-            moved = np.stack([x + step * np.cos(mid), y + step * np.sin(mid), psi1])
+            mid, step, jump = 0.5 * (psi + psi1), 0.5 * (v0 + v1) * dt, frame.ego_shift
+            moved = np.stack([x + step * np.cos(mid) - jump * np.sin(psi),
+                              y + step * np.sin(mid) + jump * np.cos(psi), psi1])  # fmt: skip
             self._pose[:, :n] = np.where(go, moved, self._pose[:, :n])
         self._pose[:, :n][:, ~go] = 0.0
         self._last[:, :n] = v1, w1
@@ -175,6 +181,10 @@ class GroundTruthEncoder:
         _vector(host.base.acceleration, a * c - v * w * s, a * s + v * w * c)
         host.base.orientation_rate.yaw = w
         host.moving_object_classification.assigned_lane_id.add().value = lane_id(0)
+        if frame.ego_shift[e] != 0.0:
+            ref = host.source_reference.add()
+            ref.type = EXTENSION_TYPE
+            ref.identifier.extend(extension_identifiers({"ego_shift": float(frame.ego_shift[e])}))
         slots = np.flatnonzero(frame.valid[e])
         if np.any(frame.object_id[e, slots] == self.host_ids[e]):
             raise InputError(

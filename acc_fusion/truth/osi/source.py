@@ -12,6 +12,7 @@ host overlaps a vehicle.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -227,8 +228,10 @@ class OsiTraces:
         return self._k * self.dt
 
     def frame(self) -> ObjectFrame:
-        """Every host's objects now (an ended trace's at its last message)."""
-        return stack_rows(self.t, [tr.row for tr in self.traces])
+        """Every host's objects now (an ended trace's at its last message, with no sideways
+        jump: the message's own was taken when it was replayed)."""
+        rows = [replace(tr.row, ego_shift=0.0) if tr.done else tr.row for tr in self.traces]
+        return stack_rows(self.t, rows)
 
     def advance(self, ego_brake: np.ndarray | None = None) -> None:
         """One step of every trace going on (``ego_brake`` is ignored: open loop)."""
@@ -268,7 +271,8 @@ def stack_rows(t: float, rows: list[HostRow]) -> ObjectFrame:
         floats[:, i, :n], valid[i, :n], ids[i, :n] = r.floats, True, r.object_id
         kind[i, :n], lane[i, :n] = r.kind, r.lane
     ego = {name: np.array([getattr(r, name) for r in rows], dtype=float)
-           for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature")}  # fmt: skip
+           for name in ("ego_speed", "ego_accel", "ego_yaw_rate", "road_curvature",
+                        "ego_shift")}  # fmt: skip
     return ObjectFrame(
         t=t, valid=valid, object_id=ids, kind=kind, lane=lane,
         lead=np.array([r.lead for r in rows], dtype=np.int64), **ego,

@@ -25,7 +25,8 @@ class ObjectArrays(NamedTuple):
     its source's :class:`~acc_fusion.truth.frame.TruthFrame` (:func:`object_frame`): the
     float fields :data:`OBJECT_FLOATS` ``(len(OBJECT_FLOATS), E, M)``, object ids ``(E, M)``
     int64 (-1: empty), kinds ``(E, M)`` int8, relative lanes ``(E, M)`` int64, lead slots
-    ``(E,)`` int64, yaw rates and road curvatures ``(E,)``, and the map paths ``(E, J)``
+    ``(E,)`` int64, yaw rates, road curvatures and sideways shifts ``(E,)``
+    (:attr:`~acc_fusion.truth.objects.ObjectFrame.ego_shift`), and the map paths ``(E, J)``
     (:attr:`~acc_fusion.truth.objects.ObjectFrame.road_path`; ``J = 0`` without a map)."""
 
     floats: np.ndarray
@@ -35,12 +36,13 @@ class ObjectArrays(NamedTuple):
     lead: np.ndarray
     yaw_rate: np.ndarray
     curvature: np.ndarray
+    shift: np.ndarray
     path: np.ndarray
 
     def resized(self, n: int) -> ObjectArrays:
         """A copy of these arrays for the first ``n`` slots: the first ``min(n, E)`` rows,
-        and slots after ``E`` that hold no vehicle (no object, no lead, yaw rate and
-        curvature 0, no map path), as
+        and slots after ``E`` that hold no vehicle (no object, no lead, yaw rate, curvature
+        and shift 0, no map path), as
         :meth:`~acc_fusion.truth.sumo.objects.SumoObjects.frame` makes an inactive slot."""
         e, m = min(n, self.lead.size), self.object_id.shape[1]
         out = object_outputs(n, m)
@@ -49,8 +51,9 @@ class ObjectArrays(NamedTuple):
         object_id[:e], kind[:e], lane[:e] = self.object_id[:e], self.kind[:e], self.lane[:e]
         lead[:e] = self.lead[:e]
         _empty_egos(e, *out)
-        rates = np.zeros((2, n))
+        rates = np.zeros((3, n))
         rates[0, :e], rates[1, :e] = self.yaw_rate[:e], self.curvature[:e]
+        rates[2, :e] = self.shift[:e]
         path = np.full((n, self.path.shape[1]), np.nan)
         path[:e] = self.path[:e]
         return ObjectArrays(*out, *rates, path)
@@ -68,6 +71,7 @@ def object_frame(truth, arrays: ObjectArrays) -> ObjectFrame:
         ego_yaw_rate=arrays.yaw_rate,
         road_curvature=arrays.curvature,
         road_path=arrays.path,
+        ego_shift=arrays.shift,
         valid=arrays.object_id >= 0,
         object_id=arrays.object_id,
         kind=arrays.kind,

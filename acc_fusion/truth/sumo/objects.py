@@ -77,6 +77,20 @@ Lateral speed (a lane change)
     that follows, else 0: a cut-in or cut-out is seen as one while the real manoeuvre would
     still be under way.
 
+The ego's lane change
+    The same jump moves an ego's frame sideways by the distance between its old and new
+    lanes' centrelines, :math:`\pm (w_{old} + w_{new}) / 2`, within one step and without a
+    turn: every object it sees moves the other way at once, which no odometry of a real car
+    would leave unexplained (a real lane change is a turn left and back over seconds, which
+    the gyro follows).  So the frame says it: :attr:`ObjectFrame.ego_shift
+    <acc_fusion.truth.objects.ObjectFrame.ego_shift>` is that distance at the step the ego's
+    lane index changes on its edge, else 0, and the trackers carry their tracks across it as
+    the ego's odometry would have (:mod:`acc_fusion.fusion.tracking.tracker`).  Taken as
+    exact: the dead reckoning of a 3.5 m lane change is off by centimetres, within a track's
+    lateral spread at any range (assumption).  A simulation whose vehicles move across lanes
+    continuously (SUMO's ``lateral-resolution`` or ``lanechange.duration`` set above 0, read
+    with ``simulation.getOption``) has no jump, and no shift.
+
 Radar cross-section and thermal contrast of vehicles: :data:`VCLASS_SIGNATURE`.
 """
 
@@ -225,9 +239,11 @@ class SumoObjects(ObjectFrames):
         # at the current one (see _yaw_rate).
         self._prev = self._now = (np.zeros(n), np.full(n, -1, dtype=np.int64), math.nan)
         # Per vehicle (by object id): edge row and lane index at the last frame, time of its
-        # last lane change and the lateral speed given it (module docstring).
+        # last lane change, the lateral speed given it and the jump [m] between the two
+        # lanes' centrelines (module docstring).
         self._last_lane = np.full((2, 0), -1, dtype=np.int64)
-        self._lane_change = np.zeros((2, 0))
+        self._lane_change = np.zeros((3, 0))
+        self._jumps = not _continuous_lane_changes(api)
 
     def _statics(self, vid: str) -> tuple[float, float, float, float, float]:
         """Length, width, height [m], rcs [dBsm] and thermal contrast [K] of a vehicle, from
@@ -275,7 +291,7 @@ class SumoObjects(ObjectFrames):
             room = 2 * int(oid.max()) + 64
             grown = np.full((2, room), -1, dtype=np.int64)
             grown[:, : self._last_lane.shape[1]] = self._last_lane
-            times = np.zeros((2, room))
+            times = np.zeros((3, room))
             times[0] = -math.inf
             times[:, : self._lane_change.shape[1]] = self._lane_change
             self._last_lane, self._lane_change = grown, times
@@ -283,10 +299,15 @@ class SumoObjects(ObjectFrames):
         last_edge, last_lane = self._last_lane[:, oid]
         changed = np.flatnonzero((edge >= 0) & (edge == last_edge) & (lane != last_lane))
         if changed.size:
-            row = lanes.first_lane[edge[changed]] + lane[changed]
+            first = lanes.first_lane[edge[changed]]
+            width, before = (
+                lanes.width[first + lane[changed]],
+                lanes.width[first + last_lane[changed]],
+            )
             side = np.sign(lane[changed] - last_lane[changed])
             self._lane_change[0, oid[changed]] = t
-            self._lane_change[1, oid[changed]] = side * lanes.width[row] / LANE_CHANGE_DURATION
+            self._lane_change[1, oid[changed]] = side * width / LANE_CHANGE_DURATION
+            self._lane_change[2, oid[changed]] = side * 0.5 * (width + before)
         self._last_lane[0, oid], self._last_lane[1, oid] = edge, lane
         recent = t - self._lane_change[0, oid] < LANE_CHANGE_DURATION
         return np.where(recent, self._lane_change[1, oid], 0.0)
@@ -374,7 +395,15 @@ class SumoObjects(ObjectFrames):
               lane_width, cos_h, sin_h, kind, obj["object_id"], obj["edge"], obj["lane"], props,
               *out)  # fmt: skip
         yaw_rate = self._yaw_rate(truth.t, heading, ego_id, has)
-        return ObjectArrays(*out, yaw_rate, curvature, path)
+        return ObjectArrays(*out, yaw_rate, curvature, self._shift(truth.t, ego_id), path)
+
+    def _shift(self, t: float, ego_id: np.ndarray) -> np.ndarray:
+        """``(E,)`` the sideways jump [m] of the egos ``ego_id`` (-1: none) that changed
+        lanes at time ``t`` (module docstring, "The ego's lane change"), else 0."""
+        shift, has = np.zeros(ego_id.size), (ego_id >= 0) & self._jumps
+        when, jump = self._lane_change[0, ego_id[has]], self._lane_change[2, ego_id[has]]
+        shift[has] = np.where(when == t, jump, 0.0)
+        return shift
 
     def _ego_lane(
         self, ego: np.ndarray, veh: dict, vids: list[str | None], ego_id: np.ndarray
@@ -417,6 +446,13 @@ class SumoObjects(ObjectFrames):
         self._now = (np.concatenate([heading, np.zeros(rest)]),
                      np.concatenate([ids, np.full(rest, -1, np.int64)]), t)  # fmt: skip
         return yaw
+
+
+def _continuous_lane_changes(api) -> bool:
+    """Whether the running simulation moves its vehicles across lanes over time (the
+    sublane model, or a lane-change duration) rather than within one step."""
+    options = ("lateral-resolution", "lanechange.duration")
+    return any(float(api.simulation.getOption(name)) > 0.0 for name in options)
 
 
 #: The getters of the float rows 2-5 of :meth:`SumoObjects._read` (rows 0-1: getPosition).

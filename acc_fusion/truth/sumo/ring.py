@@ -41,9 +41,9 @@ def _objects_bytes(k: int, m: int, j: int = 0) -> int:
     """Bytes of the object arrays of ``k`` egos with ``m`` object slots and ``j`` map-path
     stations each (:class:`~acc_fusion.truth.sumo.object_arrays.ObjectArrays`, written after
     a frame's arrays): the float fields, object ids and lanes (8 bytes an entry), the lead
-    slots, yaw rates and curvatures (8 bytes an ego), the map paths (8 bytes a station), then
-    the kinds (1 byte an entry), rounded up to 8."""
-    return 8 * ((len(OBJECT_FLOATS) + 2) * k * m + (3 + j) * k) + -(-(k * m) // 8) * 8
+    slots, yaw rates, curvatures and shifts (8 bytes an ego), the map paths (8 bytes a
+    station), then the kinds (1 byte an entry), rounded up to 8."""
+    return 8 * ((len(OBJECT_FLOATS) + 2) * k * m + (4 + j) * k) + -(-(k * m) // 8) * 8
 
 
 def _frame_bytes(k: int, m: int) -> int:
@@ -123,13 +123,15 @@ class _FrameRing:
         at += nf * km
         object_id, lane = (ints[at + i * km : at + (i + 1) * km].reshape(k, m) for i in (0, 1))
         at += 2 * km
-        lead, yaw_rate, curvature = ints[at : at + k], *(floats[at + i * k : at + (i + 1) * k]
-                                                          for i in (1, 2))  # fmt: skip
-        at += 3 * k
+        lead, yaw_rate, curvature, shift = (
+            ints[at : at + k],
+            *(floats[at + i * k : at + (i + 1) * k] for i in (1, 2, 3)),
+        )
+        at += 4 * k
         path = floats[at : at + k * j].reshape(k, j)
         at += k * j
         kind = self._kinds[8 * at : 8 * at + km].reshape(k, m)
-        return ObjectArrays(rows, object_id, kind, lane, lead, yaw_rate, curvature, path)
+        return ObjectArrays(rows, object_id, kind, lane, lead, yaw_rate, curvature, shift, path)
 
 
 @njit(cache=True)
