@@ -258,6 +258,50 @@ def test_a_ray_task_runs_its_chunk_on_one_numba_thread(monkeypatch):
         numba.set_num_threads(threads)
 
 
+#: Prints :func:`start_method` in a fresh process, then with a second thread running.
+START_METHODS = """
+import threading
+from acc_fusion.sweep.executors import start_method
+print(start_method())
+threading.Thread(target=threading.Event().wait, args=(60,), daemon=True).start()
+print(start_method())
+"""
+
+#: Prints the threading layer and :func:`start_method` after a parallel kernel ran on GNU
+#: OpenMP ("none" where numba has no OpenMP layer).
+AFTER_OPENMP = """
+import numba, numpy as np
+numba.config.THREADING_LAYER = "omp"
+@numba.njit(parallel=True)
+def total(x):
+    s = 0.0
+    for i in numba.prange(x.size):
+        s += x[i]
+    return s
+try:
+    total(np.ones(64))
+except ValueError:
+    print("none none")
+    raise SystemExit
+from acc_fusion.sweep.executors import start_method
+print(numba.threading_layer(), start_method())
+"""
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="workers are forked on Linux only")
+def test_workers_are_forked_only_from_a_process_safe_to_fork():
+    def run(code):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr[-2000:]
+        return out.stdout.split()
+
+    assert run(START_METHODS) == ["fork", "spawn"]
+    layer, method = run(AFTER_OPENMP)
+    if layer == "none":
+        pytest.skip("numba has no OpenMP threading layer here")
+    assert (layer, method) == ("omp", "spawn")
+
+
 def test_unreachable_ray_address_fails_fast(tmp_path, capsys):
     pytest.importorskip("ray")
     port = free_port()  # nothing listens there

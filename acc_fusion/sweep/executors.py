@@ -10,8 +10,9 @@ in any order; the sweep stores every chunk's rows as it arrives.  A chunk's rows
 on the chunk (:func:`acc_fusion.sweep.chunks.run_chunk`), so every executor gives the same rows.
 
 ``local`` (default)
-    A pool of ``workers`` spawned processes (:class:`concurrent.futures.ProcessPoolExecutor`).
-    The workers exit by themselves when the sweep's process dies, even by SIGKILL.
+    A pool of ``workers`` processes (:class:`concurrent.futures.ProcessPoolExecutor`), forked
+    where that is safe (:func:`start_method`), spawned elsewhere.  The workers exit by
+    themselves when the sweep's process dies, even by SIGKILL.
 ``ray``
     One Ray task per chunk, on a local Ray with ``workers`` CPUs, or on the existing cluster
     at ``address`` (whose nodes need acc_fusion installed).  An unreachable address is one
@@ -30,6 +31,7 @@ import os
 import socket
 import subprocess
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -71,6 +73,30 @@ def run_alone(fn: Callable[[T], R], item: T) -> R:
     return fn(item)
 
 
+def start_method() -> str:
+    """How the workers of a pool that runs many items start: ``"fork"`` on Linux from a
+    process that is safe to fork, ``"spawn"`` anywhere else.
+
+    A forked worker begins with this process's imports and the compiled kernels it has
+    loaded; a spawned one first spends about 1.6 s (on the project's 2-core VM) importing
+    numba, scipy and acc_fusion and loading numba's cache, as long as a 2 000-run scripted
+    chunk takes.  A process is safe to fork when no other Python thread runs (another thread
+    may hold a lock the child needs: the Python docs, multiprocessing, "Contexts and start
+    methods") and numba's thread pool, if a parallel kernel has started one, is not GNU
+    OpenMP's, which a forked child cannot use (numba's docs, "The Threading Layers"; its
+    ``workqueue`` and ``tbb`` layers and OpenBLAS's threads prepare for a fork themselves).
+    macOS's system libraries do not support forking at all.  A pool that runs SUMO is always
+    spawned: libsumo allows one simulation per process, and a fresh interpreter per run is
+    the only way to be sure of it.
+    """
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel kernel has run here: numba has no threads
+        layer = ""
+    safe = threading.active_count() == 1 and layer != "omp"
+    return "fork" if sys.platform == "linux" and safe else "spawn"
+
+
 def _is_sumo(chunk: Chunk) -> bool:
     """Whether a chunk runs SUMO (and so needs a process of its own)."""
     return chunk.point.source == "sumo"
@@ -83,16 +109,16 @@ def local_map(
     fresh: Callable[[T], bool] = bool,
     label: Callable[[T], str] = str,
 ) -> Iterator[tuple[T, R]]:
-    """``fn`` over ``items`` in a pool of ``workers`` spawned processes, yielding ``(item,
-    result)`` as each finishes; the items for which ``fresh`` is true get a process each
-    (libsumo: one simulation per process).  A worker's error is re-raised as it is, and one
-    that died without raising is one sentence naming ``label(item)``
-    (:func:`~acc_fusion.core.pools.died`); after an error, or when the consumer stops early,
-    the pools are stopped at once (:func:`~acc_fusion.core.pools.stop`)."""
+    """``fn`` over ``items`` in a pool of ``workers`` processes, yielding ``(item, result)`` as
+    each finishes; the items for which ``fresh`` is true get a spawned process each (libsumo:
+    one simulation per process), the others share a pool started as :func:`start_method`
+    says.  A worker's error is re-raised as it is, and one that died without raising is one
+    sentence naming ``label(item)`` (:func:`~acc_fusion.core.pools.died`); after an error, or
+    when the consumer stops early, the pools are stopped at once
+    (:func:`~acc_fusion.core.pools.stop`)."""
     if not items:
         return
-    ctx = multiprocessing.get_context("spawn")
-    kw = {"mp_context": ctx, "initializer": _watch_parent, "initargs": (os.getpid(),)}
+    kw = {"initializer": _watch_parent, "initargs": (os.getpid(),)}
     alone = [c for c in items if fresh(c)]
     shared = [c for c in items if not fresh(c)]
     if alone and sys.version_info < (3, 11):
@@ -101,10 +127,12 @@ def local_map(
     try:
         futures = {}
         if shared:
-            pools.append(ProcessPoolExecutor(workers, **kw))
+            ctx = multiprocessing.get_context(start_method())
+            pools.append(ProcessPoolExecutor(workers, mp_context=ctx, **kw))
             futures |= {pools[-1].submit(fn, c): c for c in shared}
         if alone:
-            pools.append(ProcessPoolExecutor(workers, max_tasks_per_child=1, **kw))
+            ctx = multiprocessing.get_context("spawn")
+            pools.append(ProcessPoolExecutor(workers, mp_context=ctx, max_tasks_per_child=1, **kw))
             futures |= {pools[-1].submit(fn, c): c for c in alone}
         while futures:
             done, _ = wait(futures, return_when=FIRST_COMPLETED)

@@ -84,7 +84,9 @@ def run_sweep(
     total = config.total_runs
     from tqdm.auto import tqdm
 
-    bar = tqdm(
+    # No monitor thread (it only refreshes bars left idle for 10 s): a process with a second
+    # thread spawns its workers rather than forking them (executors.start_method).
+    bar = type("SweepBar", (tqdm,), {"monitor_interval": 0})(
         total=total,
         initial=total - sum(c.n_runs for c in todo),
         unit="run",
