@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acc_fusion.core.errors import ConfigError
+from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import G
 from acc_fusion.metrics.alert_classes import AlertClassConfig, crash_relevant
 from acc_fusion.metrics.events import FCWMetrics
@@ -193,3 +193,14 @@ def test_thresholds_are_checked():
         AlertClassConfig(decel_threshold=-1.0)
     with pytest.raises(ConfigError, match="ttc_threshold"):
         AlertClassConfig(ttc_threshold=float("nan"))
+
+
+def test_urgency_broadcasts_scalars_and_names_a_bad_input():
+    """Scalars broadcast over the pairs; a NaN, or arrays of two lengths, is one error
+    naming the input (the finite (N,) arrays take a shortcut past the checks)."""
+    need = required_deceleration(np.array([50.0, 20.0]), 20.0, 0.0, 0.0)
+    assert np.array_equal(need, [4.0, 10.0])
+    with pytest.raises(InputError, match="v_lead must be finite"):
+        required_deceleration(np.full(2, 50.0), np.full(2, 20.0), np.array([0.0, np.nan]), 0.0)
+    with pytest.raises(InputError, match=r"v_ego must be a number or have shape \(3,\)"):
+        time_to_collision_braking_lead(np.ones(3), np.ones(2), np.ones(2), np.ones(2))

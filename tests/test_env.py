@@ -10,7 +10,14 @@ gym = pytest.importorskip("gymnasium")
 import acc_fusion  # noqa: E402,F401  (registers the environment)
 from acc_fusion.core.errors import ConfigError  # noqa: E402
 from acc_fusion.envs.collision_warning import CollisionWarningEnv  # noqa: E402
-from acc_fusion.envs.observation import OBS_FIELDS  # noqa: E402
+from acc_fusion.envs.observation import (  # noqa: E402
+    _HIGH,
+    _LOW,
+    NIS_CLIP,
+    NO_TRACK_GAP,
+    OBS_FIELDS,
+    track_entries,
+)
 
 
 def test_gymnasium_env_checker_passes():
@@ -123,3 +130,38 @@ def test_vector_env_is_deterministic_and_checks_actions():
         from acc_fusion.envs.collision_warning import CollisionWarningVectorEnv
 
         CollisionWarningVectorEnv(4, render_mode="rgb_array")
+
+
+def test_track_entries_are_the_clipped_columns_of_the_estimates():
+    """The compiled observation entries equal the columns built with NumPy, bit for bit,
+    without a track, with negative or NaN variances, non-finite NIS and unbounded ages."""
+    rng = np.random.default_rng(7)
+    n = 500
+    x = rng.normal(0.0, [150.0, 40.0, 10.0], (n, 3))
+    p = rng.normal(0.0, 30.0, (n, 3, 3))
+    p[rng.random((n, 3, 3)) < 0.05] = np.nan
+    valid = rng.random(n) < 0.7
+    v_ego = rng.normal(20.0, 30.0, n)
+    reporting = rng.random((2, n)) < 0.5
+    isolated = rng.random((n, 2)) < 0.2
+    nis = rng.exponential(60.0, (n, 2))
+    nis[rng.random((n, 2)) < 0.2] = np.nan
+    nis[rng.random((n, 2)) < 0.05] = np.inf
+    age = rng.exponential(8.0, (2, n))
+    age[rng.random((2, n)) < 0.1] = np.inf
+
+    std = np.sqrt(np.clip(np.diagonal(p, axis1=1, axis2=2), 0.0, None))
+    columns = [
+        np.where(valid[:, None], x, [NO_TRACK_GAP, 0.0, 0.0]),
+        np.where(valid[:, None], std, 0.0),
+        np.maximum(v_ego, 0.0)[:, None],
+        valid[:, None],
+    ]
+    limited = np.where(np.isfinite(nis), np.minimum(nis, NIS_CLIP), 0.0)
+    for s in range(2):
+        columns.append(np.column_stack([reporting[s], isolated[:, s], limited[:, s], age[s]]))
+    expected = np.clip(np.column_stack(columns), _LOW, _HIGH)
+    got = track_entries(x, p, valid, v_ego, list(reporting), isolated, nis, age)
+    assert got.shape == (n, len(OBS_FIELDS))
+    assert np.array_equal(got, expected, equal_nan=True)
+    assert np.isnan(got).any()  # a NaN variance of a track stays NaN, as in NumPy

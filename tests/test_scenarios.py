@@ -401,3 +401,16 @@ def test_pass_rule_is_five_of_seven_and_no_warning_fails():
     assert lvs.pass_probability(0.5) == pytest.approx(29 / 128)
     with pytest.raises(InputError, match="must hold the 7 trials of nhtsa_lvs, got 3"):
         lvs.passes([3.0, 3.0, 3.0])
+
+
+def test_move_is_advance_without_the_frame():
+    """``move`` then ``frame`` is ``advance``: the frame is built when first asked for."""
+    a, b = random_suite(40, 4, 0.1), random_suite(40, 4, 0.1)
+    for _ in range(30):
+        brake = brake_when_close(a.frame())
+        frame = a.advance(brake)
+        assert b.move(brake) is None
+        built = b.frame()
+        for name in ("ego_speed", "ego_accel", "gap", "lead_speed", "lead_accel", "leader_id"):
+            assert np.array_equal(getattr(frame, name), getattr(built, name), equal_nan=True)
+        assert built.t == frame.t and b.frame() is built

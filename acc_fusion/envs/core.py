@@ -78,7 +78,11 @@ class _Core:
         then start a new run (drawn from ``rng``) while the others continue.  Returns the
         rewards."""
         was = self.source.collided
-        self.source.advance(self._brakes(action))
+        brakes = self._brakes(action)
+        if isinstance(self.source, ScenarioSource):  # its frame is built after the restarts
+            self.source.move(brakes)
+        else:
+            self.source.advance(brakes)
         self.steps += 1
         self.collided = self.source.collided & ~was
         reward = self._reward(action)

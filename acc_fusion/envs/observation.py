@@ -6,6 +6,7 @@ observations by these names, without the environment."""
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.warning.selection import MAX_HALF_WIDTH
@@ -72,17 +73,51 @@ def track_entries(x, p, valid, v_ego, reporting, isolated, nis, age) -> np.ndarr
         valid: ``(n,)`` there is a track.
         v_ego: ``(n,)`` ego speed of the ego-motion filter [m/s].
         reporting: per sensor of :data:`SENSOR_NAMES`, ``(n,)`` the sensor measured the track's
-            object at this step.
+            object at this step (``(S, n)``).
         isolated, nis: ``(n, S)`` the fault detection isolates the sensor, and its NIS (NaN
             where it did not report).
         age: ``(S, n)`` seconds since each sensor's last measurement of the object.
+
+    Where there is no track, the estimate is :data:`NO_TRACK_GAP`, 0, 0 and its standard
+    deviations 0; a NIS that is not finite is 0, a finite one at most :data:`NIS_CLIP`.
     """
-    std = np.sqrt(np.clip(np.diagonal(p, axis1=1, axis2=2), 0.0, None))
-    x = np.where(valid[:, None], x, [NO_TRACK_GAP, 0.0, 0.0])
-    std = np.where(valid[:, None], std, 0.0)
-    nis = np.where(np.isfinite(nis), np.minimum(nis, NIS_CLIP), 0.0)
-    sensors = []
-    for i, rep in enumerate(reporting):
-        sensors += [rep, isolated[:, i], nis[:, i], age[i]]
-    obs = np.column_stack([x, std, np.maximum(v_ego, 0.0), valid, np.column_stack(sensors)])
-    return np.clip(obs, _LOW, _HIGH)
+    n = np.shape(valid)[0]
+    out = np.empty((n, _LOW.size))
+    _entries(
+        np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(p, dtype=float),
+        np.ascontiguousarray(valid, dtype=bool), np.ascontiguousarray(v_ego, dtype=float),
+        np.ascontiguousarray(np.asarray(reporting, dtype=bool).reshape(-1, n)),
+        np.ascontiguousarray(isolated, dtype=bool), np.ascontiguousarray(nis, dtype=float),
+        np.ascontiguousarray(age, dtype=float), _LOW, _HIGH, NO_TRACK_GAP, NIS_CLIP, out,
+    )  # fmt: skip
+    return out
+
+
+@njit(cache=True)
+def _entries(
+    x, p, valid, v_ego, reporting, isolated, nis, age, low, high, no_gap, nis_clip, out
+):  # pragma: no cover - compiled
+    """:func:`track_entries` into ``out (n, 8 + 4 S)``, row by row, each entry clipped to
+    ``[low, high]`` as :func:`numpy.clip` clips (NaN stays NaN)."""
+    for i in range(valid.size):
+        ok = valid[i]
+        for a in range(3):
+            var = p[i, a, a]
+            if var < 0.0:  # np.clip(var, 0, None): NaN stays NaN
+                var = 0.0
+            out[i, a] = x[i, a] if ok else (no_gap if a == 0 else 0.0)
+            out[i, 3 + a] = np.sqrt(var) if ok else 0.0
+        out[i, 6] = max(v_ego[i], 0.0) if v_ego[i] == v_ego[i] else v_ego[i]
+        out[i, 7] = 1.0 if ok else 0.0
+        for s in range(reporting.shape[0]):
+            v = nis[i, s]
+            col = 8 + 4 * s
+            out[i, col] = 1.0 if reporting[s, i] else 0.0
+            out[i, col + 1] = 1.0 if isolated[i, s] else 0.0
+            out[i, col + 2] = min(v, nis_clip) if np.isfinite(v) else 0.0
+            out[i, col + 3] = age[s, i]
+        for c in range(low.size):
+            v = out[i, c]
+            if v == v:  # numpy's clip: max(v, lo) then min(., hi), NaN kept
+                v = v if v > low[c] else low[c]
+                out[i, c] = v if v < high[c] else high[c]

@@ -317,7 +317,14 @@ class ScenarioSource:
     def advance(
         self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None
     ) -> TruthFrame:
-        """Move every active run one step and return the new frame.
+        """Move every active run one step (:meth:`move`) and return the new frame."""
+        self.move(ego_brake, hold)
+        return self.frame()
+
+    def move(self, ego_brake: np.ndarray | None = None, hold: np.ndarray | None = None) -> None:
+        """Move every active run one step, without building its frame (:meth:`frame` builds
+        it when first asked): for a caller that starts new runs before it reads the frame,
+        which :meth:`start` would make it build again (the vector environment).
 
         Args:
             ego_brake: ``(N,)`` deceleration requested by each run's driver [m/s², >= 0] for
@@ -345,7 +352,6 @@ class ScenarioSource:
             self._run_t, self._k, self._k0, self.dt, TIME_TOL, OVERLAP_OFFSET, VEHICLE_LENGTH,
             IDM.constants, *self._leader(),
         )  # fmt: skip
-        return self.frame()
 
     def draw(self, n: int, seed: int | np.random.Generator | None) -> Draws:
         """``n`` runs of this source's scenario, drawn exactly as a fresh
