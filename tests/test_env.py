@@ -8,7 +8,7 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 
 import acc_fusion  # noqa: E402,F401  (registers the environment)
-from acc_fusion.core.errors import ConfigError  # noqa: E402
+from acc_fusion.core.errors import ConfigError, InputError  # noqa: E402
 from acc_fusion.envs.collision_warning import CollisionWarningEnv  # noqa: E402
 from acc_fusion.envs.observation import (  # noqa: E402
     _HIGH,
@@ -165,3 +165,18 @@ def test_track_entries_are_the_clipped_columns_of_the_estimates():
     assert got.shape == (n, len(OBS_FIELDS))
     assert np.array_equal(got, expected, equal_nan=True)
     assert np.isnan(got).any()  # a NaN variance of a track stays NaN, as in NumPy
+
+
+def test_track_entries_name_an_input_of_the_wrong_shape():
+    n = 4
+    args = dict(
+        x=np.zeros((n, 3)), p=np.zeros((n, 3, 3)), valid=np.ones(n, bool), v_ego=np.zeros(n),
+        reporting=np.zeros((2, n), bool), isolated=np.zeros((n, 2), bool), nis=np.zeros((n, 2)),
+        age=np.zeros((2, n)),
+    )  # fmt: skip
+    assert track_entries(**args).shape == (n, len(OBS_FIELDS))
+    empty = {k: v[:, :0] if k in ("reporting", "age") else v[:0] for k, v in args.items()}
+    assert track_entries(**empty).shape == (0, len(OBS_FIELDS))
+    for name, bad in (("v_ego", np.zeros(1)), ("x", np.zeros((n, 2))), ("age", np.zeros((2, 3)))):
+        with pytest.raises(InputError, match=rf"track_entries: {name} must have shape"):
+            track_entries(**{**args, name: bad})

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from acc_fusion.core.errors import InputError
 from acc_fusion.sensors.suite import SENSOR_NAMES
 from acc_fusion.warning.selection import MAX_HALF_WIDTH
 
@@ -81,21 +82,28 @@ def track_entries(x, p, valid, v_ego, reporting, isolated, nis, age) -> np.ndarr
     Where there is no track, the estimate is :data:`NO_TRACK_GAP`, 0, 0 and its standard
     deviations 0; a NIS that is not finite is 0, a finite one at most :data:`NIS_CLIP`.
     """
-    n = np.shape(valid)[0]
+    valid = np.asarray(valid, dtype=bool)
+    n, s = valid.shape[0] if valid.ndim == 1 else -1, len(SENSOR_NAMES)
+    args = []
+    for name, value, dtype, shape in (
+        ("valid", valid, bool, (n,)), ("x", x, float, (n, 3)), ("p", p, float, (n, 3, 3)),
+        ("v_ego", v_ego, float, (n,)), ("reporting", reporting, bool, (s, n)),
+        ("isolated", isolated, bool, (n, s)), ("nis", nis, float, (n, s)),
+        ("age", age, float, (s, n)),
+    ):  # fmt: skip
+        a = np.asarray(value, dtype=dtype)
+        if a.shape != shape or n < 0:
+            want = "(N,)" if n < 0 else str(shape)
+            raise InputError(f"track_entries: {name} must have shape {want}, got {a.shape}")
+        args.append(np.ascontiguousarray(a))
     out = np.empty((n, _LOW.size))
-    _entries(
-        np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(p, dtype=float),
-        np.ascontiguousarray(valid, dtype=bool), np.ascontiguousarray(v_ego, dtype=float),
-        np.ascontiguousarray(np.asarray(reporting, dtype=bool).reshape(-1, n)),
-        np.ascontiguousarray(isolated, dtype=bool), np.ascontiguousarray(nis, dtype=float),
-        np.ascontiguousarray(age, dtype=float), _LOW, _HIGH, NO_TRACK_GAP, NIS_CLIP, out,
-    )  # fmt: skip
+    _entries(*args, _LOW, _HIGH, NO_TRACK_GAP, NIS_CLIP, out)
     return out
 
 
 @njit(cache=True)
 def _entries(
-    x, p, valid, v_ego, reporting, isolated, nis, age, low, high, no_gap, nis_clip, out
+    valid, x, p, v_ego, reporting, isolated, nis, age, low, high, no_gap, nis_clip, out
 ):  # pragma: no cover - compiled
     """:func:`track_entries` into ``out (n, 8 + 4 S)``, row by row, each entry clipped to
     ``[low, high]`` as :func:`numpy.clip` clips (NaN stays NaN)."""

@@ -74,27 +74,30 @@ def run_alone(fn: Callable[[T], R], item: T) -> R:
 
 
 def start_method() -> str:
-    """How the workers of a pool that runs many items start: ``"fork"`` on Linux from a
-    process that is safe to fork, ``"spawn"`` anywhere else.
+    """How the workers of a pool that runs many items start: ``"fork"`` on Linux (Python >=
+    3.11) from a process that is safe to fork, ``"spawn"`` anywhere else.
 
     A forked worker begins with this process's imports and the compiled kernels it has
     loaded; a spawned one first spends about 1.6 s (on the project's 2-core VM) importing
     numba, scipy and acc_fusion and loading numba's cache, as long as a 2 000-run scripted
     chunk takes.  A process is safe to fork when no other Python thread runs (another thread
     may hold a lock the child needs: the Python docs, multiprocessing, "Contexts and start
-    methods") and numba's thread pool, if a parallel kernel has started one, is not GNU
-    OpenMP's, which a forked child cannot use (numba's docs, "The Threading Layers"; its
-    ``workqueue`` and ``tbb`` layers and OpenBLAS's threads prepare for a fork themselves).
-    macOS's system libraries do not support forking at all.  A pool that runs SUMO is always
-    spawned: libsumo allows one simulation per process, and a fresh interpreter per run is
-    the only way to be sure of it.
+    methods") and numba's thread pool, if a parallel kernel has started one, is not OpenMP's,
+    which a forked child of GNU OpenMP cannot use (numba's docs, "The Threading Layers");
+    numba's ``workqueue`` and ``tbb`` layers, OpenBLAS's and Arrow's thread pools prepare for
+    a fork themselves (Python 3.12 and later still warn, with a ``DeprecationWarning``, that
+    they see other OS threads).  Before 3.11 a fork pool could fork workers after its manager
+    thread had started (CPython gh-90622); macOS's system libraries do not support forking.
+    A pool that runs SUMO is always spawned: libsumo allows one simulation per process, and
+    a fresh interpreter per run is the only way to be sure of it.
     """
     try:
         layer = numba.threading_layer()
     except ValueError:  # no parallel kernel has run here: numba has no threads
         layer = ""
     safe = threading.active_count() == 1 and layer != "omp"
-    return "fork" if sys.platform == "linux" and safe else "spawn"
+    forks = sys.platform == "linux" and sys.version_info >= (3, 11)
+    return "fork" if forks and safe else "spawn"
 
 
 def _is_sumo(chunk: Chunk) -> bool:

@@ -239,11 +239,11 @@ class ScenarioSource:
 
     @property
     def reassigned(self) -> np.ndarray:
-        """``(N,)`` runs restarted since the last :meth:`advance` (reset their per-run state).
+        """``(N,)`` runs restarted since the last :meth:`advance` or :meth:`move` (reset their
+        per-run state).
 
         The same flag as :attr:`acc_fusion.truth.sumo.source.SumoSource.reassigned`: the current
-        frame of
-        these runs is the first frame of a new run.
+        frame of these runs is the first frame of a new run.
         """
         return self._reassigned.copy()
 
@@ -389,9 +389,9 @@ class ScenarioSource:
         :data:`SLOTS` per restart (:attr:`generation`); ``frame().t`` stays the global time.
         The run's ``kind``, ``run_params``, ``duration``, collision and end bookkeeping are
         replaced (new arrays: arrays read before stay unchanged), and :attr:`reassigned` flags
-        it until the next :meth:`advance`.  Drawing runs ahead in blocks and starting them a
-        few at a time (the vector environment's episodes) costs a fraction of a
-        :meth:`restart` each.
+        it until the next :meth:`advance` or :meth:`move`.  Drawing runs ahead in blocks and
+        starting them a few at a time (the vector environment's episodes) costs a fraction of
+        a :meth:`restart` each.
 
         Raises:
             InputError: ``mask`` is not a boolean array of shape ``(N,)``, or ``draws`` does
