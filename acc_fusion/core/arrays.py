@@ -73,3 +73,13 @@ def _scan(rows, mask, finite, nonnegative):  # pragma: no cover - compiled
             if nonnegative and v < 0:
                 negative = True
     return _NEGATIVE if negative else 0
+
+
+@njit(cache=True)
+def all_finite(x):  # pragma: no cover - compiled
+    """True if every entry of the flat array ``x`` is finite (a kernel's shortcut past
+    :func:`check_array` for inputs that are usually good)."""
+    for i in range(x.size):
+        if not np.isfinite(x[i]):
+            return False
+    return True

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from acc_fusion.core.arrays import check_array
+from acc_fusion.core.arrays import all_finite, check_array
 from acc_fusion.core.errors import InputError
 
 
@@ -25,7 +25,7 @@ def _arrays(gap, v_ego, v_lead, a_lead) -> tuple[np.ndarray, ...]:
     """The four inputs as float ``(N,)`` arrays (scalars broadcast), each checked finite."""
     arrays = [np.atleast_1d(np.asarray(x, dtype=float)) for x in (gap, v_ego, v_lead, a_lead)]
     n = max(a.size for a in arrays)
-    if all(a.shape == (n,) for a in arrays) and _finite(*arrays):
+    if all(a.shape == (n,) and all_finite(a) for a in arrays):
         return tuple(arrays)  # as the checks below would return them
     names = ("gap", "v_ego", "v_lead", "a_lead")
     for name, a in zip(names, arrays, strict=True):
@@ -91,17 +91,6 @@ def time_to_collision_braking_lead(gap, v_ego, v_lead, a_lead) -> np.ndarray:
     4.47
     """
     return urgency(gap, v_ego, v_lead, a_lead)[1]
-
-
-@njit(cache=True)
-def _finite(a, b, c, d):  # pragma: no cover - compiled
-    """Whether four ``(N,)`` arrays are finite everywhere."""
-    for i in range(a.size):
-        if not (
-            np.isfinite(a[i]) and np.isfinite(b[i]) and np.isfinite(c[i]) and np.isfinite(d[i])
-        ):
-            return False
-    return True
 
 
 @njit(cache=True, error_model="numpy")

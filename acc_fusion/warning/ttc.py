@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from acc_fusion.core.arrays import check_array
+from acc_fusion.core.arrays import all_finite, check_array
 from acc_fusion.core.errors import InputError
 from acc_fusion.warning.safety_kernels import _maximum
 
@@ -62,7 +62,7 @@ def _flat(x: np.ndarray, shape: tuple[int, ...], size: int) -> np.ndarray:
 def _time_to_collision(g, rate, acc, out):  # pragma: no cover - compiled
     """:func:`time_to_collision` of flat inputs of ``out.size`` entries (or 1, broadcast) into
     ``out``; False, before writing, if an input is not finite."""
-    if not (_finite(g) and _finite(rate) and _finite(acc)):
+    if not (all_finite(g) and all_finite(rate) and all_finite(acc)):
         return False
     for i in range(out.size):
         gi = g[i if g.size > 1 else 0]
@@ -77,13 +77,4 @@ def _time_to_collision(g, rate, acc, out):  # pragma: no cover - compiled
             out[i] = 2.0 * gap_pos / denom
         else:
             out[i] = np.inf
-    return True
-
-
-@njit(cache=True)
-def _finite(x):  # pragma: no cover - compiled
-    """True if every entry of the flat array ``x`` is finite."""
-    for i in range(x.size):
-        if not np.isfinite(x[i]):
-            return False
     return True
