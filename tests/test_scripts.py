@@ -201,3 +201,11 @@ def test_alert_onsets_prints_what_the_false_alerts_were_at_their_onsets():
         "alert_onsets.py", "--net", "motorway", "--set", "world.selection.path=nope", ok=False
     )
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1
+
+
+def test_bench_env_times_its_stages():
+    lines = run("bench_env.py", "--quick", "--num-envs", "16", "--stages").stdout.splitlines()
+    assert re.fullmatch(r"median step of 16 copies: [0-9.]+ ms \(50 steps\)", lines[0])
+    for row in ("new episodes", "perception", "its compiled step", "observation and info"):
+        assert any(re.fullmatch(rf"\s+{row}\s+[0-9.]+ ms a step", ln) for ln in lines), row
+    assert re.fullmatch(r"vector_env_steps_per_s=[0-9.]+ ratio_vs_highway_env=[0-9.]+", lines[-1])
