@@ -28,7 +28,7 @@ run and at its end (memory must stay flat: every per-vehicle record is dropped w
 vehicle leaves, and the metrics stream), ``source_ratio=<source wall time / bare wall
 time>``, ``floor_ratio=<reads wall time / bare wall time>``, and as its last line
 ``overhead_ratio=<median over the pairs of pipeline wall time / bare wall time>`` (target:
-<= 1.5).  A pair's two runs share the machine's state of the moment; on a shared virtual
+<= 1.25).  A pair's two runs share the machine's state of the moment; on a shared virtual
 machine a single pair's ratio moves by +-0.3 from one pair to the next.
 
     python scripts/bench_sumo.py             # 600 s simulated

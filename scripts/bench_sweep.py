@@ -8,7 +8,8 @@ same number of CPUs (skipped when Ray is not installed, or with ``--no-ray``).  
 executor the runs, the wall time (from the first chunk submitted to the last row stored,
 worker start-up included; Ray's own start-up is timed apart), runs/s and pair-steps/s (a
 pair-step: one run advanced by one step, all four methods), and whether both executors gave
-identical rows.  The last line is ``runs_per_s=<float>`` of the local executor.
+identical rows.  The last line is ``runs_per_s=<float>`` of the local executor (target:
+>= 1 800 on 2 cores).
 
     python scripts/bench_sweep.py            # 10 000 runs per executor
     python scripts/bench_sweep.py --quick    # 4 000 runs per executor (under a minute)

@@ -35,7 +35,7 @@ vehicles), the pipelines' time per stage (each stage's methods timed in the pipe
 :data:`STAGES`; with SUMO in the background, ``sumo`` and ``objects`` are the waits for and
 copies of its frames), ``objects_ratio=<objects wall time / bare wall time>``,
 ``inline_ratio=<inline wall time / bare wall time>`` and as its last line
-``overhead_ratio=<pipeline wall time / bare wall time>``.
+``overhead_ratio=<pipeline wall time / bare wall time>`` (target: <= 3).
 
 Memory against traffic: the bare and pipeline runs also sample their resident memory (the
 pipeline's: its process's and SUMO's, whose shared ring of frames counts twice, a constant)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import ast
 import json
 import re
+import runpy
 import statistics
 import subprocess
 import sys
@@ -201,6 +203,18 @@ def test_alert_onsets_prints_what_the_false_alerts_were_at_their_onsets():
         "alert_onsets.py", "--net", "motorway", "--set", "world.selection.path=nope", ok=False
     )
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1
+
+
+def test_each_benchmark_states_the_target_make_bench_judges_it_on():
+    """A script's docstring and ``make bench``'s table hold the same target for its figure."""
+    benches = runpy.run_path(str(SCRIPTS / "bench_all.py"), run_name="bench_all")["BENCHES"]
+    number = r"([0-9][0-9 ]*(?:\.[0-9]+)?(?:e[0-9]+)?)"
+    for bench in benches:
+        doc = ast.get_docstring(ast.parse((SCRIPTS / bench.script).read_text()))
+        found = re.search(rf"(?:target|goal):?\s*(>=|<=)\s*{number}", doc, flags=re.I)
+        assert found, bench.script
+        assert found[1] == (">=" if bench.at_least else "<="), bench.script
+        assert float(found[2].replace(" ", "")) == bench.target, bench.script
 
 
 def test_bench_env_times_its_stages():
