@@ -7,7 +7,13 @@ oracle) is below imminent. Of the onsets on another vehicle than the true lead (
 (``--set world.selection.path=map``), how far the vehicle truly was from that path: outside the
 corridor, the track's lateral estimate put it in; inside, the path is right but SUMO's leader is
 another vehicle; where the path does not reach the vehicle's range (the ego on no lane, or its
-lane turning back before), neither. Of the onsets on the true lead it prints the estimated
+lane turning back before), neither. It sorts the same onsets by where the true lead was at that
+step: none ahead in the ego's lane; not among the fused objects; off the predicted path (its
+offset over :data:`OFF_PATH` and its in-path probability below the selector's
+``enter_probability``), with the range and probability of the vehicle taken instead; near the
+path but not selectable, with how many of those leads held one sensor's track only and how many
+had no valid estimate of the method; or selectable, another vehicle taken before it. Of the
+onsets on the true lead it prints the estimated
 minus the true lead acceleration and the lead's true jerk over the last 0.5 s (one step at
 least): lag at a brake release shows as a positive jerk, noise at the rule's threshold as a
 jerk about 0. Onsets are
@@ -30,7 +36,7 @@ from acc_fusion.cli.main import build_parser
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.metrics.summary import CAUSES
-from acc_fusion.sim.world import simulate_world
+from acc_fusion.sim.world import WorldPerception, simulate_world
 from acc_fusion.truth.objects import PATH_STATIONS
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 from acc_fusion.truth.sumo.source import SumoSource
@@ -38,6 +44,12 @@ from acc_fusion.truth.sumo.world import SumoWorld
 
 #: Time back over which the lead's true jerk is taken [s] (at least one step).
 JERK_TIME = 0.5
+
+#: Offset from the predicted path beyond which the true lead counts as off it [m].
+OFF_PATH = 1.0
+
+#: Where the true lead was at an onset on another vehicle, in :meth:`Onsets.lead_place` order.
+PLACES = ("no lead", "not fused", "off the path", "near the path, not selectable", "selectable")
 
 
 class Onsets:
@@ -50,6 +62,15 @@ class Onsets:
         self.span = self._back * dt  # the jerk's time span [s]
         self.adjacent: list[tuple[float, float]] = []  # range, offset from the map's path
         self.lead: list[tuple[float, float]] = []  # estimated - true accel, true jerk
+        # per adjacent onset: the lead's place, the taken object's range and in-path
+        # probability, whether the lead held one track only and whether its estimate was valid
+        self.places: list[tuple[int, float, float, bool, bool]] = []
+        self.perception = None  # the WorldPerception, set by :meth:`build`
+
+    def build(self, *args, **kwargs) -> WorldPerception:
+        """The run's :class:`WorldPerception`, kept so that the hook reads its selector."""
+        self.perception = WorldPerception(*args, **kwargs)
+        return self.perception
 
     def __call__(self, view) -> None:
         p, level = view.perceived, view.levels[self.method]
@@ -72,11 +93,42 @@ class Onsets:
                 path = objects.road_path[e]
                 off = y - np.interp(x, PATH_STATIONS, path) if path.size else np.nan
                 self.adjacent.append((x, off))
+            self.places.append(self.lead_place(view, e, x if k.size else np.nan))
         for e in np.flatnonzero(onset[:n] & (cause[:n] == CAUSES.index("lead"))).tolist():
             ids, before = self._accel[0]
             same = len(self._accel) > self._back and ids[e] == truth.leader_id[e]
             jerk = (truth.lead_accel[e] - before[e]) / self.span
             self.lead.append((est.x[e, 2] - truth.lead_accel[e], jerk if same else np.nan))
+
+    def lead_place(self, view, e: int, x: float) -> tuple[int, float, float, bool, bool]:
+        """Where ego ``e``'s true lead was at an onset on another object at range ``x`` [m]:
+        its index in :data:`PLACES`, ``x``, the taken object's in-path probability, whether the
+        lead's fused object held one sensor's track only and whether the method's estimate of
+        it was valid."""
+        p, sel = view.perceived, self.perception.selectors[self.method]
+        fused, tracks = p.sensed.fused, p.sensed.tracks
+        taken = sel.selected[e]
+        prob = sel.probability[e, taken] if taken >= 0 else np.nan
+        leader = p.frame.leader_id[e]
+        if leader < 0:
+            return 0, x, prob, False, False
+        track = fused.track[e]
+        seen = np.where(track[:, 0] >= 0, tracks[0].object_id[e, np.maximum(track[:, 0], 0)],
+                        tracks[1].object_id[e, np.maximum(track[:, 1], 0)])  # fmt: skip
+        k = np.flatnonzero(fused.valid[e] & (seen == leader))
+        if not k.size:
+            return 1, x, prob, False, False
+        k = k[0]
+        one = bool((track[k] < 0).any())
+        pair = self.perception.pool.pair_of[e * self.perception.slots + k]
+        valid = bool(pair >= 0 and p.sensed.estimates[self.method].valid[pair])
+        if sel.in_path[e, k]:
+            return 4, x, prob, one, valid
+        off = (
+            abs(sel.offset[e, k]) > OFF_PATH
+            and sel.probability[e, k] < sel.config.enter_probability
+        )
+        return (2 if off else 3), x, prob, one, valid
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -90,7 +142,8 @@ def main(argv: list[str] | None = None) -> int:
         with SumoSource(config) as source:
             run, hook = replace(sim, dt=source.dt), Onsets(method, source.dt)
             world = SumoWorld(source, sim.world.object_field())
-            simulate_world(run, source=world, warnings_on=False, on_step=hook, progress=True)
+            simulate_world(run, source=world, warnings_on=False, on_step=hook, progress=True,
+                           perception=hook.build)  # fmt: skip
     except AccFusionError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -108,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{int(out.sum())}, median offset {median:.1f} m; "
                   f"inside: {int((known & ~out).sum())}; where the map's path does not reach: "
                   f"{int((~known).sum())}")  # fmt: skip
+        print_places(np.array(hook.places, dtype=float).reshape(-1, 5))
     if len(lead):
         jerk = lead[:, 1]
         print(f"on the true lead: {len(lead)} onsets; estimated - true lead acceleration, median "
@@ -116,6 +170,21 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.nanmean(jerk > 0.5):.0%}")  # fmt: skip
     print(f"adjacent={len(adjacent)} on_lead={len(lead)}")
     return 0
+
+
+def print_places(places: np.ndarray) -> None:
+    """Print the adjacent onsets by where the true lead was (rows of :meth:`Onsets.lead_place`)."""
+    print("  where the true lead was:")
+    for i, name in enumerate(PLACES):
+        rows = places[places[:, 0] == i]
+        line = f"    {name}: {len(rows)}"
+        if len(rows) and i == 2:
+            line += (f"; the object taken at a median {np.nanmedian(rows[:, 1]):.0f} m, in-path "
+                     f"probability median {np.nanmedian(rows[:, 2]):.2f}")  # fmt: skip
+        if len(rows) and i >= 3:
+            line += (f"; one sensor's track only {int(rows[:, 3].sum())}, no valid estimate "
+                     f"{int((rows[:, 4] == 0).sum())}")  # fmt: skip
+        print(line)
 
 
 if __name__ == "__main__":

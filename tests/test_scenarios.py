@@ -9,8 +9,14 @@ import pytest
 from acc_fusion.core.errors import ConfigError, InputError
 from acc_fusion.core.units import KMH, MPH, G
 from acc_fusion.metrics.protocols import REQUIREMENTS, requirement
-from acc_fusion.truth.manoeuvre_params import OVERLAP_OFFSET, SLOTS, CCRbParams, LVSParams
-from acc_fusion.truth.manoeuvres import RANDOM_RANGES, SCENARIOS, STANDARD
+from acc_fusion.truth.manoeuvre_params import (
+    OVERLAP_OFFSET,
+    RANDOM_RANGES,
+    SLOTS,
+    CCRbParams,
+    LVSParams,
+)
+from acc_fusion.truth.manoeuvres import SCENARIOS, STANDARD
 from acc_fusion.truth.scripted import ScenarioSource, make_scenario, random_suite
 
 

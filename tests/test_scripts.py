@@ -199,6 +199,10 @@ def test_alert_onsets_prints_what_the_false_alerts_were_at_their_onsets():
     out = run("alert_onsets.py", "--net", "motorway", "--end", "40").stdout
     assert re.fullmatch(r"adjacent=\d+ on_lead=\d+", out.strip().splitlines()[-1])
     assert "motorway.sumocfg, seed 0, federated, path fused, FCW off" in out
+    # every onset on another vehicle is sorted into one place of the true lead
+    adjacent = int(re.search(r"adjacent=(\d+)", out)[1])
+    places = re.findall(r"^    ([a-z ,]+): (\d+)", out, flags=re.M)
+    assert adjacent > 0 and len(places) == 5 and sum(int(k) for _, k in places) == adjacent
     bad = run(
         "alert_onsets.py", "--net", "motorway", "--set", "world.selection.path=nope", ok=False
     )

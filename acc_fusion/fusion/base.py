@@ -121,7 +121,7 @@ class Estimator(PairState, ABC):
         if pairs.any():
             self.initialised &= ~pairs
             self._target[pairs] = np.iinfo(np.int64).min
-            self._drop(pairs)
+            self._drop(pairs, True)
 
     @abstractmethod
     def _reset_state(self) -> None: ...
@@ -131,8 +131,9 @@ class Estimator(PairState, ABC):
         """One predict/update cycle; returns the pairs that used a measurement."""
 
     @abstractmethod
-    def _drop(self, pairs: np.ndarray) -> None:
-        """Forget the tracks of ``pairs`` (their filters are re-initialised later)."""
+    def _drop(self, pairs: np.ndarray, new_vehicle: bool) -> None:
+        """Forget the tracks of ``pairs`` (their filters are re-initialised later); a
+        ``new_vehicle`` (:meth:`forget`) is new to the sensors too."""
 
     @abstractmethod
     def _state(self) -> tuple[np.ndarray, np.ndarray]: ...
@@ -176,7 +177,7 @@ class Estimator(PairState, ABC):
         lost = np.empty(self.n_pairs, dtype=bool)
         limit = self._coast_limit
         if _lose(self.initialised, self._target, target_id, self._last, t, limit, lost):
-            self._drop(lost)
+            self._drop(lost, False)
         if self._noise is not None:
             x, _ = self._state()
             u = np.empty(0) if ego_accel is None else ego_accel

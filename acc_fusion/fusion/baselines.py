@@ -29,7 +29,7 @@ class _OneFilter(Estimator):
         super()._resized(m)
         self.bank.resize(m)
 
-    def _drop(self, pairs):
+    def _drop(self, pairs, new_vehicle):
         pass  # the filter is overwritten when the pair initialises again
 
     def _state(self):
@@ -129,7 +129,7 @@ class SteadyStateFilter(Estimator):
         self.x = np.zeros((self.n_pairs, STATE_DIM))
         self.since = np.zeros(self.n_pairs, dtype=np.int64)
 
-    def _drop(self, pairs):
+    def _drop(self, pairs, new_vehicle):
         self.x[pairs] = 0.0
 
     def _state(self):

@@ -276,10 +276,6 @@ class WindowedChiSquare(PairState):
         self.frozen = np.zeros((n_pairs, n_sensors), dtype=bool)
         self._age = np.zeros((n_pairs, n_sensors), dtype=np.int64)
 
-    def reset(self, pairs: np.ndarray) -> None:
-        """Forget every test of the pairs in the boolean mask ``pairs`` (a new vehicle)."""
-        _reset(np.ascontiguousarray(pairs, dtype=bool), *self.arrays()[:9])
-
     def tests(self) -> tuple[float, float, float, int, bool, tuple[float, ...]]:
         """The gate, the clip value, the window threshold, the age limit of a confirming report
         (steps), whether a first failing window is taken for a manoeuvre and the variance
@@ -467,19 +463,14 @@ def _clear_window(i, s, buf, total, count, pos):  # pragma: no cover - compiled
     pos[i, s] = 0
 
 
-@njit(cache=True)
-def _reset(
-    mask, buf, total, count, pos, isolated, verdict, suspect, last, frozen
-):  # pragma: no cover
-    """:meth:`WindowedChiSquare.reset` of the pairs in ``mask``: the track's tests and the
-    sensors' (variance tests, frozen verdicts), as for a new vehicle."""
-    for i in range(mask.size):
-        if mask[i]:
-            for s in range(buf.shape[1]):
-                last[i, s, :] = 0.0
-                last[i, s, SCALE] = 1.0
-                frozen[i, s] = False
-            reset_one(i, buf, total, count, pos, isolated, verdict, suspect, last, frozen)
+@njit(cache=True, inline="always")
+def reset_sensors_one(i, last, frozen):  # pragma: no cover - compiled
+    """Forget pair ``i``'s sensor-level tests (the variance tests and their frozen verdicts)
+    for a new vehicle; :func:`reset_one` forgets its track-level tests after."""
+    for s in range(last.shape[1]):
+        last[i, s, :] = 0.0
+        last[i, s, SCALE] = 1.0
+        frozen[i, s] = False
 
 
 @njit(cache=True, inline="always")

@@ -117,8 +117,8 @@ class FederatedFilter(Estimator):
             if part is not None:
                 part.resize(m)
 
-    def _drop(self, pairs):
-        _drop_pairs(np.asarray(pairs, dtype=bool), *self._track_arrays())
+    def _drop(self, pairs, new_vehicle):
+        _drop_pairs(np.asarray(pairs, dtype=bool), new_vehicle, *self._track_arrays())
         self._infl = None
 
     def _track_arrays(self) -> tuple:
@@ -129,12 +129,9 @@ class FederatedFilter(Estimator):
 
     def forget(self, pairs):
         """Drop the tracks of ``pairs`` (a boolean mask ``(N,)``), e.g. when a slot gets a new
-        vehicle; their fault detector's windows restart too."""
+        vehicle; their fault detector's tests restart too, its sensors' among them."""
         super().forget(pairs)
-        pairs = np.asarray(pairs, dtype=bool)
-        self._reported_at[:, pairs] = -np.inf  # a new vehicle's track
-        if self.fdi is not None:  # and its sensors: no frozen output, no noise burst
-            self.fdi.reset(pairs)
+        self._reported_at[:, np.asarray(pairs, dtype=bool)] = -np.inf  # a new vehicle's track
 
     def _reported(self) -> np.ndarray:
         r"""Tracks confirmed by every sensor that should see them.
@@ -207,7 +204,7 @@ class FederatedFilter(Estimator):
         starts = valid if self.fdi is None else valid & ~self.fdi.frozen.T
         init, x0, p0, consumed = self._initial(z, r, starts)
         if x0 is not None:
-            self._drop(init)
+            self._drop(init, False)
             self.master.assign(0, init, x0, p0)
             infl = self._inflation()
             for s in s_all:
@@ -281,7 +278,7 @@ class FederatedFilter(Estimator):
         lost = ini & isolated.any(axis=0) & (isolated | silent).all(axis=0)
         if lost.any():
             self.initialised &= ~lost
-            self._drop(lost)
+            self._drop(lost, False)
         return (accepted | consumed).any(axis=0)
 
     def _take_manoeuvre(self, pairs: np.ndarray, var: float) -> None:

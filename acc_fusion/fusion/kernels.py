@@ -22,7 +22,7 @@ from acc_fusion.filters.kalman import (
     update_one,
 )
 from acc_fusion.fusion.bias import correct_bias_one
-from acc_fusion.fusion.fdi import SCALE, reset_one, window_one
+from acc_fusion.fusion.fdi import SCALE, reset_one, reset_sensors_one, window_one
 
 
 @njit(cache=True)
@@ -512,15 +512,19 @@ def _drop_one(
 
 @njit(cache=True)
 def _drop_pairs(
-    pairs, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated, verdict,
-    suspect, last, frozen,
+    pairs, new_vehicle, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
+    verdict, suspect, last, frozen,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """:func:`_drop_one` of the pairs in ``pairs (N,)``."""
+    """:func:`_drop_one` of the pairs in ``pairs (N,)``; for a ``new_vehicle`` their sensors'
+    tests too (:func:`~acc_fusion.fusion.fdi.reset_sensors_one`: no frozen output, no noise
+    burst)."""
     pairs, beta, beta0, seen, needed = borrow((pairs, beta, beta0, seen, needed))
     buf, total, count, pos, isolated, verdict, suspect, last, frozen = borrow(
         (buf, total, count, pos, isolated, verdict, suspect, last, frozen)
     )
     for k in range(pairs.size):
         if pairs[k]:
+            if has_fdi and new_vehicle:
+                reset_sensors_one(k, last, frozen)
             _drop_one(k, beta, beta0, seen, needed, has_fdi, buf, total, count, pos, isolated,
                       verdict, suspect, last, frozen)  # fmt: skip

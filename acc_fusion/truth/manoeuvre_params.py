@@ -431,3 +431,42 @@ class FollowingParams(ScenarioParams):
     fluctuation_accel: Number = 0.3
     time_headway: Number = 2.0
     ego_desired_speed: Number = 120 * KMH
+
+
+#: Monte Carlo ranges of :func:`random_suite`: kind -> field -> (low, high, unit, why).
+RANDOM_RANGES: dict[str, dict[str, tuple[float, float, str, str]]] = {
+    "nhtsa_lvs": {"sv_speed": (30 * MPH, 60 * MPH, "m/s", "30-60 mph around the test's 45 mph")},
+    "nhtsa_lvd": {
+        "speed": (30 * MPH, 60 * MPH, "m/s", "30-60 mph around the test's 45 mph"),
+        "headway": (20.0, 40.0, "m", "around the test's 30 m"),
+        "pov_decel": (0.2 * G, 0.5 * G, "m/s²", "0.2-0.5 g around the test's 0.3 g"),
+    },
+    "nhtsa_lvm": {
+        "sv_speed": (30 * MPH, 60 * MPH, "m/s", "30-60 mph around the test's 45 mph"),
+        "pov_speed": (10 * MPH, 25 * MPH, "m/s", "10-25 mph around the test's 20, below sv_speed"),
+    },
+    "ccrs": {"vut_speed": (10 * KMH, 80 * KMH, "m/s", "10-80 km/h, the CCRs span")},
+    "ccrm": {"vut_speed": (30 * KMH, 80 * KMH, "m/s", "the protocol's 30-80 km/h")},
+    "ccrb": {
+        "headway": (12.0, 40.0, "m", "spans the protocol's 12 and 40 m"),
+        "gvt_decel": (2.0, 6.0, "m/s²", "spans the protocol's 2 and 6 m/s²"),
+    },
+    "cut_in": {
+        "ego_speed": (60 * KMH, 120 * KMH, "m/s", "60-120 km/h, arterial to motorway (assumption)"),
+        "cut_in_speed": (40 * KMH, 100 * KMH, "m/s", "40-100 km/h, mostly slower (assumption)"),
+        "cut_in_gap": (5.0, 25.0, "m", "short merges, about 0.2-1.5 s headway (assumption)"),
+    },
+    "cut_out": {
+        "ego_speed": (60 * KMH, 120 * KMH, "m/s", "60-120 km/h, arterial to motorway (assumption)"),
+        "lead_speed": (40 * KMH, 80 * KMH, "m/s", "40-80 km/h: mostly a slower lead (assumption)"),
+        "revealed_speed": (0.0, 80 * KMH, "m/s", "0-80 km/h: queue end to moving traffic"),
+    },
+    "stop_and_go": {
+        "cruise_speed": (20 * KMH, 50 * KMH, "m/s", "20-50 km/h, urban queues"),
+        "time_headway": (1.0, 2.0, "s", "urban headways around the IDM's 1.6 s"),
+    },
+    "following": {
+        "lead_speed": (15.0, 30.0, "m/s", "54-108 km/h, below the ego's 120 km/h desired speed"),
+        "time_headway": (1.5, 3.0, "s", "safe time headways"),
+    },
+}

@@ -50,12 +50,12 @@ from typing import Any
 import numpy as np
 
 from acc_fusion.core.errors import ConfigError
-from acc_fusion.core.units import KMH, MPH, G
 from acc_fusion.core.validation import check_choice
 from acc_fusion.truth.manoeuvre_params import (
     FOLLOWING_DURATION,
     IDM,
     LANE_WIDTH,
+    RANDOM_RANGES,
     SETTLE_TIME,
     SLOTS,
     VEHICLE_LENGTH,
@@ -91,6 +91,9 @@ class _Plan:
     lateral: np.ndarray  # (N, S, 4) lane change: start [s], from [m], to [m], duration [s]
 
 
+_PLAN_FIELDS = tuple(f.name for f in fields(_Plan))  # the names of _Plan's fields
+
+
 @dataclass(frozen=True)
 class _Vehicle:
     """One other vehicle of a kind's runs: initial gap (inf: absent), speed, speed events."""
@@ -103,13 +106,20 @@ class _Vehicle:
 
 @dataclass(frozen=True)
 class Draws:
-    """Runs of a scenario drawn and not yet started
-    (:meth:`~acc_fusion.truth.scripted.ScenarioSource.draw`): their script, parameters and
-    kinds, ``n_runs`` of each."""
+    """``n_runs`` runs of a scenario drawn, not yet started (:meth:`ScenarioSource.draw
+    <acc_fusion.truth.scripted.ScenarioSource.draw>`): script, parameters' names and values
+    ``(P, n)`` (NaN where a field does not apply to a run's kind), kinds."""
 
     plan: _Plan
-    run_params: dict[str, np.ndarray]
+    names: tuple[str, ...]
+    params: np.ndarray
     kind: np.ndarray
+
+    @classmethod
+    def of(cls, plan: _Plan, runs: dict[str, np.ndarray], kind: np.ndarray) -> Draws:
+        """The draws of a manoeuvre's build: its plan, ``{field: (n,) array}`` and kinds."""
+        values = np.array([*runs.values()], float).reshape(len(runs), kind.shape[0])
+        return cls(plan, tuple(runs), values, kind)
 
     @property
     def n_runs(self) -> int:
@@ -117,8 +127,40 @@ class Draws:
 
     def take(self, rows: slice | np.ndarray) -> Draws:
         """The runs ``rows`` of these (a slice or an index array)."""
-        plan = _Plan(**{f.name: getattr(self.plan, f.name)[rows] for f in fields(_Plan)})
-        return Draws(plan, {k: v[rows] for k, v in self.run_params.items()}, self.kind[rows])
+        plan = _Plan(**{name: getattr(self.plan, name)[rows] for name in _PLAN_FIELDS})
+        return Draws(plan, self.names, self.params[:, rows], self.kind[rows])
+
+    def table(self) -> RunParams:
+        """Their parameters as the :class:`RunParams` of a source (its own array)."""
+        return RunParams(self.names, self.params)
+
+
+class RunParams:
+    """The parameters of N runs, ``(P, N)`` under their names (NaN where a field does not
+    apply to a run's kind), which the runs started later overwrite: in place, or in a new
+    array where a field is new or :meth:`columns` lent the array out."""
+
+    def __init__(self, names: tuple[str, ...], values: np.ndarray) -> None:
+        self.names, self.values, self._lent = names, values, False
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """``{field: (N,) array}``: views that runs started later leave as they are."""
+        self._lent = True
+        return dict(zip(self.names, self.values, strict=True))
+
+    def start(self, idx: np.ndarray, draws: Draws) -> None:
+        """Write the parameters of ``draws`` into the runs ``idx`` (NaN in a field they lack)."""
+        names, values, same = self.names, self.values, draws.names == self.names
+        if not same or self._lent:
+            names = (*names, *(f for f in draws.names if f not in names))
+            values = np.full((len(names), values.shape[1]), np.nan)
+            values[: len(self.names)] = self.values
+        if same:
+            values[:, idx] = draws.params
+        else:
+            values[:, idx] = np.nan
+            values[np.ix_([names.index(f) for f in draws.names], idx)] = draws.params
+        self.names, self.values, self._lent = names, values, False
 
 
 def _plan(ego_speed, vehicles, duration, horizon, idm=None) -> _Plan:
@@ -156,7 +198,10 @@ def _plan(ego_speed, vehicles, duration, horizon, idm=None) -> _Plan:
 
 def _pad_segments(a: np.ndarray, k: int, fill: float) -> np.ndarray:
     """Pad the segment axis (last) of ``a`` to ``k`` entries with ``fill`` (``np.pad``'s
-    result without its general machinery, a fifth of an episode's restart)."""
+    result without its general machinery, a fifth of an episode's restart); ``a`` itself if
+    it has ``k``."""
+    if a.shape[-1] == k:
+        return a
     out = np.full((*a.shape[:-1], k), fill, dtype=a.dtype)
     out[..., : a.shape[-1]] = a
     return out
@@ -310,45 +355,6 @@ _BUILDERS: dict[str, tuple[type[ScenarioParams], Callable[..., _Plan]]] = {
 STANDARD: tuple[str, ...] = tuple(_BUILDERS)
 
 
-#: Monte Carlo ranges of :func:`random_suite`: kind -> field -> (low, high, unit, why).
-RANDOM_RANGES: dict[str, dict[str, tuple[float, float, str, str]]] = {
-    "nhtsa_lvs": {"sv_speed": (30 * MPH, 60 * MPH, "m/s", "30-60 mph around the test's 45 mph")},
-    "nhtsa_lvd": {
-        "speed": (30 * MPH, 60 * MPH, "m/s", "30-60 mph around the test's 45 mph"),
-        "headway": (20.0, 40.0, "m", "around the test's 30 m"),
-        "pov_decel": (0.2 * G, 0.5 * G, "m/s²", "0.2-0.5 g around the test's 0.3 g"),
-    },
-    "nhtsa_lvm": {
-        "sv_speed": (30 * MPH, 60 * MPH, "m/s", "30-60 mph around the test's 45 mph"),
-        "pov_speed": (10 * MPH, 25 * MPH, "m/s", "10-25 mph around the test's 20, below sv_speed"),
-    },
-    "ccrs": {"vut_speed": (10 * KMH, 80 * KMH, "m/s", "10-80 km/h, the CCRs span")},
-    "ccrm": {"vut_speed": (30 * KMH, 80 * KMH, "m/s", "the protocol's 30-80 km/h")},
-    "ccrb": {
-        "headway": (12.0, 40.0, "m", "spans the protocol's 12 and 40 m"),
-        "gvt_decel": (2.0, 6.0, "m/s²", "spans the protocol's 2 and 6 m/s²"),
-    },
-    "cut_in": {
-        "ego_speed": (60 * KMH, 120 * KMH, "m/s", "60-120 km/h, arterial to motorway (assumption)"),
-        "cut_in_speed": (40 * KMH, 100 * KMH, "m/s", "40-100 km/h, mostly slower (assumption)"),
-        "cut_in_gap": (5.0, 25.0, "m", "short merges, about 0.2-1.5 s headway (assumption)"),
-    },
-    "cut_out": {
-        "ego_speed": (60 * KMH, 120 * KMH, "m/s", "60-120 km/h, arterial to motorway (assumption)"),
-        "lead_speed": (40 * KMH, 80 * KMH, "m/s", "40-80 km/h: mostly a slower lead (assumption)"),
-        "revealed_speed": (0.0, 80 * KMH, "m/s", "0-80 km/h: queue end to moving traffic"),
-    },
-    "stop_and_go": {
-        "cruise_speed": (20 * KMH, 50 * KMH, "m/s", "20-50 km/h, urban queues"),
-        "time_headway": (1.0, 2.0, "s", "urban headways around the IDM's 1.6 s"),
-    },
-    "following": {
-        "lead_speed": (15.0, 30.0, "m/s", "54-108 km/h, below the ego's 120 km/h desired speed"),
-        "time_headway": (1.5, 3.0, "s", "safe time headways"),
-    },
-}
-
-
 @dataclass(frozen=True)
 class RandomSuiteParams:
     """Parameters of the ``random`` mixture (:func:`random_suite`).
@@ -401,12 +407,12 @@ def _merge(parts: list[tuple[np.ndarray, _Plan]], n: int) -> _Plan:
     """One plan from the plans of disjoint sets of runs (speed programs padded to equal K)."""
     k = max(plan.seg_t.shape[-1] for _, plan in parts)
     merged = {}
-    for f in fields(_Plan):
-        arrays = [_padded(f.name, getattr(plan, f.name), k) for _, plan in parts]
+    for name in _PLAN_FIELDS:
+        arrays = [_padded(name, getattr(plan, name), k) for _, plan in parts]
         out = np.empty((n, *arrays[0].shape[1:]), dtype=arrays[0].dtype)
         for (idx, _), a in zip(parts, arrays, strict=True):
             out[idx] = a
-        merged[f.name] = out
+        merged[name] = out
     return _Plan(**merged)
 
 
@@ -415,14 +421,12 @@ def _merge_into(plan: _Plan, idx: np.ndarray, sub: _Plan) -> _Plan | None:
     (which must be its own) except ``duration`` (a new array: it is handed out); ``None``
     when ``sub``'s speed programs are longer than ``plan``'s or a dtype would change."""
     k = plan.seg_t.shape[-1]
-    if sub.seg_t.shape[-1] > k or any(
-        np.result_type(getattr(plan, f.name), getattr(sub, f.name)) != getattr(plan, f.name).dtype
-        for f in fields(_Plan)
-    ):
+    pairs = [(name, getattr(plan, name), getattr(sub, name)) for name in _PLAN_FIELDS]
+    if sub.seg_t.shape[-1] > k or any(np.result_type(a, b) != a.dtype for _, a, b in pairs):
         return None
-    for f in fields(_Plan):
-        if f.name != "duration":
-            getattr(plan, f.name)[idx] = _padded(f.name, getattr(sub, f.name), k)
+    for name, a, b in pairs:
+        if name != "duration":
+            a[idx] = _padded(name, b, k)
     duration = plan.duration.copy()
     duration[idx] = sub.duration
     return replace(plan, duration=duration)

@@ -152,8 +152,6 @@ class ScenarioSource:
 
     Attributes:
         kind: ``(N,)`` manoeuvre name of each run (mixed for ``random``).
-        run_params: ``{field: (N,) array}`` parameters of each run (NaN where a field does not
-            apply to the run's kind).
         duration: ``(N,)`` length of each run [s] (its current run after a :meth:`restart`).
 
     Times of a run's script, ``duration`` and :attr:`end_time` are run times (:attr:`run_time`,
@@ -190,9 +188,10 @@ class ScenarioSource:
         )
         self.params = params
         self._build, self._horizon = manoeuvre.build, horizon
-        plan, self.run_params, self.kind = manoeuvre.build(
+        plan, runs, self.kind = manoeuvre.build(
             params, self.n_runs, np.random.default_rng(seed), horizon
         )
+        self._params = Draws.of(plan, runs, self.kind).table()
         self._plan = plan
         self._own_plan = False  # the plan's arrays may be the run parameters' own
         self.duration = plan.duration
@@ -213,10 +212,18 @@ class ScenarioSource:
         self._collided = np.zeros(self.n_runs, dtype=bool)
         self._collision_speed = np.full(self.n_runs, np.nan)
         self._rows = np.arange(self.n_runs)
-        self._leaders: tuple | None = None  # the leaders of the current state, kept by advance
+        # every run's leader: slot, whether it has one, gap, lateral offset (advance keeps them)
+        self._leaders = tuple(np.zeros(self.n_runs, t) for t in (np.int64, bool, float, float))
+        self._find_leaders(self._rows)
         self._frame: TruthFrame | None = None  # the frame of this step, built on demand
 
     # ---- public state
+    @property
+    def run_params(self) -> dict[str, np.ndarray]:
+        """``{field: (N,) array}`` parameters of each run (NaN where a field does not apply to
+        the run's kind); runs started later do not change the arrays returned."""
+        return self._params.columns()
+
     @property
     def t(self) -> float:
         """Current time [s] (``step * dt``, so event times do not drift)."""
@@ -290,7 +297,7 @@ class ScenarioSource:
         plan = self._plan
         (position, speed, accel, length, gap, lat), ids = kernels.lead_state(
             plan.seg_t, plan.seg_v, plan.seg_rate, self._run_t, self._end_time, TIME_TOL,
-            self._x, self._v, *self._leader(), self._generation, SLOTS, VEHICLE_LENGTH,
+            self._x, self._v, *self._leaders, self._generation, SLOTS, VEHICLE_LENGTH,
         )  # fmt: skip
         return ScenarioState(
             t=self.t,
@@ -350,14 +357,14 @@ class ScenarioSource:
             self._x, self._v, self._ego_x, self._ego_v, self._ego_a, self._brake, self._hold,
             self._braked, self._end_time, self._collided, self._collision_speed,
             self._run_t, self._k, self._k0, self.dt, TIME_TOL, OVERLAP_OFFSET, VEHICLE_LENGTH,
-            IDM.constants, *self._leader(),
+            IDM.constants, *self._leaders,
         )  # fmt: skip
 
     def draw(self, n: int, seed: int | np.random.Generator | None) -> Draws:
         """``n`` runs of this source's scenario, drawn exactly as a fresh
         ``ScenarioSource(name, n, dt, seed, params, duration)`` draws its runs, for
         :meth:`start`."""
-        return Draws(*self._build(self.params, n, np.random.default_rng(seed), self._horizon))
+        return Draws.of(*self._build(self.params, n, np.random.default_rng(seed), self._horizon))
 
     def restart(self, mask: np.ndarray, seed: int | np.random.Generator | None) -> None:
         """Start a new run of the scenario, now, for the runs in ``mask``; the others continue.
@@ -415,7 +422,7 @@ class ScenarioSource:
         return np.flatnonzero(mask)
 
     def _start(self, idx: np.ndarray, draws: Draws) -> None:
-        sub, runs, kinds = draws.plan, draws.run_params, draws.kind
+        sub, kinds = draws.plan, draws.kind
         plan = _merge_into(self._plan, idx, sub) if self._own_plan else None
         if plan is None:  # a new plan (its arrays the source's own from now on)
             plan = _merge([(self._rows, self._plan), (idx, sub)], self.n_runs)
@@ -424,13 +431,7 @@ class ScenarioSource:
         kind = self.kind.astype(np.promote_types(self.kind.dtype, kinds.dtype))
         kind[idx] = kinds
         self.kind = kind
-        run_params = {}
-        for name in [*self.run_params, *(f for f in runs if f not in self.run_params)]:
-            old = self.run_params.get(name)
-            column = np.full(self.n_runs, np.nan) if old is None else np.array(old, float)
-            column[idx] = runs.get(name, np.nan)
-            run_params[name] = column
-        self.run_params = run_params
+        self._params.start(idx, draws)
         # per-run state: the fresh source's initial state
         self._frame = None
         self._k0[idx] = self._k
@@ -447,18 +448,15 @@ class ScenarioSource:
         self._end_time[idx] = np.inf
         self._collided[idx] = False
         self._collision_speed[idx] = np.nan
-        self._leaders = None
+        self._find_leaders(idx)
 
     # ---- internals
-    def _leader(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Leader slot, has-leader mask, gap and lateral offset of every run (``(N,)`` each):
-        those :meth:`advance` left, or found afresh after a construction or a restart."""
-        if self._leaders is None:
-            self._leaders = kernels.leaders(
-                self._x, self._ego_x, self._run_t, self._plan.present, self._plan.lateral,
-                OVERLAP_OFFSET, VEHICLE_LENGTH,
-            )  # fmt: skip
-        return self._leaders
+    def _find_leaders(self, rows: np.ndarray) -> None:
+        """Find the leaders of the runs ``rows`` afresh (a construction, a restart)."""
+        kernels.leaders(
+            rows, self._x, self._ego_x, self._run_t, self._plan.present, self._plan.lateral,
+            OVERLAP_OFFSET, VEHICLE_LENGTH, *self._leaders,
+        )  # fmt: skip
 
 
 def make_scenario(

@@ -58,14 +58,11 @@ def find_leader(
 
 
 @njit(cache=True)
-def leaders(x, ego_x, run_t, present, lateral, overlap, length):
-    """:func:`find_leader` of every run: ``(slot, has, gap, lat)``, ``(N,)`` each."""
-    n = x.shape[0]
-    slot, has = np.zeros(n, np.int64), np.zeros(n, np.bool_)
-    gap, lat = np.empty(n), np.empty(n)
-    for i in range(n):
+def leaders(rows, x, ego_x, run_t, present, lateral, overlap, length, slot, has, gap, lat):
+    """:func:`find_leader` of the runs ``rows``, written into ``slot, has, gap, lat``
+    (``(N,)`` each; the other runs' entries are left as they are)."""
+    for i in rows:
         find_leader(i, x, ego_x, run_t, present, lateral, overlap, length, slot, has, gap, lat)
-    return slot, has, gap, lat
 
 
 @njit(cache=True, inline="always")
