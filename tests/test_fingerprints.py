@@ -1,5 +1,6 @@
 """The pipeline's outputs, fingerprinted: a fixed scripted suite, a fixed 2-D scene and a fixed
-SUMO run give these warning levels and oracle levels, step by step, for every method.
+SUMO run give these warning levels and oracle levels, step by step, for every method; the
+vector env, whose copies restart, its flags, ends, oracle and collisions.
 
 A speed-up must leave them bit for bit (issue "The speed back and forward").  A change of
 behaviour changes them: update the digest in the same commit and say why in its message.
@@ -61,3 +62,28 @@ def test_the_sumo_fingerprint():
         simulate_world(SimConfig(runs=1, dt=source.dt), source=SumoWorld(source), on_step=digest)
     assert digest.steps > 0
     assert digest.hexdigest() == "d126bd5a965f2789"
+
+
+def test_the_vector_env_fingerprint():
+    """The vector env's copies end and restart many times over 300 steps: its flags (a track,
+    each sensor reporting and isolated, the episode's end), the oracle and the collisions."""
+    import gymnasium as gym
+    import numpy as np
+
+    import acc_fusion  # noqa: F401  (registers the environment)
+    from acc_fusion.envs.observation import OBS_FIELDS
+
+    flags = [OBS_FIELDS.index(f) for f in OBS_FIELDS if f.endswith(("valid", "ing", "isolated"))]
+    env = gym.make_vec(
+        "acc_fusion/CollisionWarning-v0", num_envs=256, vectorization_mode="vector_entry_point"
+    )
+    env.reset(seed=3)
+    actions, digest, ends = np.random.default_rng(5), hashlib.sha256(), 0
+    for _ in range(300):
+        obs, _, term, trunc, info = env.step(actions.integers(0, 3, 256))
+        for a in (obs[:, flags], term, trunc, info["oracle"], info["collided"]):
+            digest.update(np.asarray(a).astype("int8").tobytes())
+        ends += int((term | trunc).sum())
+    env.close()
+    assert ends > 256 and len(flags) == 5
+    assert digest.hexdigest()[:16] == "c4543da720b1ae46"
