@@ -36,7 +36,7 @@ from acc_fusion.cli.main import build_parser
 from acc_fusion.core.errors import AccFusionError
 from acc_fusion.core.levels import IMMINENT
 from acc_fusion.metrics.summary import CAUSES
-from acc_fusion.sim.world import WorldPerception, simulate_world
+from acc_fusion.sim.world import WorldPerception, seen_id, simulate_world
 from acc_fusion.truth.objects import PATH_STATIONS
 from acc_fusion.truth.sumo.nets import resolve_sumocfg
 from acc_fusion.truth.sumo.source import SumoSource
@@ -112,14 +112,12 @@ class Onsets:
         leader = p.frame.leader_id[e]
         if leader < 0:
             return 0, x, prob, False, False
-        track = fused.track[e]
-        seen = np.where(track[:, 0] >= 0, tracks[0].object_id[e, np.maximum(track[:, 0], 0)],
-                        tracks[1].object_id[e, np.maximum(track[:, 1], 0)])  # fmt: skip
-        k = np.flatnonzero(fused.valid[e] & (seen == leader))
-        if not k.size:
+        ids = (fused.track, tracks[0].object_id, tracks[1].object_id)
+        k = [j for j in np.flatnonzero(fused.valid[e]) if seen_id(*ids, e, j) == leader]
+        if not k:
             return 1, x, prob, False, False
         k = k[0]
-        one = bool((track[k] < 0).any())
+        one = bool((fused.track[e, k] < 0).any())
         pair = self.perception.pool.pair_of[e * self.perception.slots + k]
         valid = bool(pair >= 0 and p.sensed.estimates[self.method].valid[pair])
         if sel.in_path[e, k]:

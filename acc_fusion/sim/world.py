@@ -445,9 +445,15 @@ def _selected(
                 p_out[e, i, j] = p[q, i, j]
         for s in range(nis.shape[1]):
             nis_out[e, s], isolated_out[e, s] = nis[q, s], isolated[q, s]
-        radar, camera = track[e, k, 0], track[e, k, 1]
-        seen = radar_id[e, max(radar, 0)] if radar >= 0 else camera_id[e, max(camera, 0)]
-        truth[e] = seen if has[e] else -1
+        truth[e] = seen_id(track, radar_id, camera_id, e, k) if has[e] else -1
+
+
+@njit(cache=True, inline="always")
+def seen_id(track, radar_id, camera_id, e, k):  # pragma: no cover - compiled
+    """The true id of ego ``e``'s fused object ``k``: its radar track's object, else its camera
+    track's (``track`` :attr:`FusedObjects.track`, the ids the two trackers' tracks hold)."""
+    radar, camera = track[e, k, 0], track[e, k, 1]
+    return radar_id[e, max(radar, 0)] if radar >= 0 else camera_id[e, max(camera, 0)]
 
 
 def simulate_world(
